@@ -1,0 +1,301 @@
+"""The forward model: equilibrium shape of the breast in one posture.
+
+A :class:`ForwardModel` holds one fixed-topology mesh; ``(R, H)`` move its nodes
+through the smooth :class:`~breastcore.geometry.CapMap`. :func:`solve_posture`
+reaches equilibrium by adaptive continuation, first in the gravity load factor
+and then in the Chassaignac smoothing δ down to its target, with a Newton solve
+(or the paper's conjugate-gradient baseline) at each step.
+"""
+
+from __future__ import annotations
+
+import logging
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .assembly import FreeDofAssembler
+from .energy import BulkNeoHookean, Chassaignac, Composite, Gravity, SkinMembrane
+from .geometry import CapMap
+from .mesh import CapMesh, refold
+from .parameters import Parameters
+from .postures import Posture
+from .solver import Factorization, newton
+
+log = logging.getLogger(__name__)
+
+
+@dataclass(frozen=True)
+class SolverOptions:
+    """Settings of the equilibrium solve; every default is documented in the README.
+
+    Attributes
+    ----------
+    method : {"newton", "cg"}
+        Newton with the exact Hessian (default) or the paper's non-linear CG.
+    rtol : float
+        Converged when ‖free-dof gradient‖ ≤ ``rtol`` × ‖gravity load vector‖.
+    stage_rtol : float
+        The looser tolerance of the intermediate continuation steps.
+    smoothing_start : float
+        δ (m) at which the gravity ramp is done before δ is lowered to its target.
+    max_iterations : int
+        Newton iterations per continuation step (CG: ``cg_max_iterations``).
+    min_step : float
+        Smallest continuation step (in load factor or in decades of δ).
+    cg_max_iterations : int
+    """
+
+    method: str = "newton"
+    rtol: float = 1e-8
+    stage_rtol: float = 1e-5
+    smoothing_start: float = 1e-4
+    max_iterations: int = 40
+    min_step: float = 1.0 / 256
+    cg_max_iterations: int = 20000
+
+    def __post_init__(self):
+        if self.method not in ("newton", "cg"):
+            raise ValueError(f"solver method must be 'newton' or 'cg', got {self.method!r}")
+        for name in ("rtol", "stage_rtol", "smoothing_start", "min_step"):
+            if not getattr(self, name) > 0:
+                raise ValueError(f"solver option {name} must be > 0")
+
+
+class SolveError(RuntimeError):
+    """A solve that did not reach its tolerance; carries the diagnostics.
+
+    Attributes
+    ----------
+    iterations : int
+        Newton (or CG) iterations spent in all continuation steps.
+    gradient_norm, tolerance : float
+        Free-dof gradient norm reached and the one asked for, N.
+    min_det_F : float
+        Smallest ``det F`` over the tets at the last admissible iterate.
+    load_factor, smoothing : float
+        Continuation level reached: fraction of gravity and δ (m).
+    posture : str
+    """
+
+    def __init__(self, message, *, iterations, gradient_norm, tolerance, min_det_F,
+                 load_factor, smoothing, posture):
+        self.iterations = iterations
+        self.gradient_norm = gradient_norm
+        self.tolerance = tolerance
+        self.min_det_F = min_det_F
+        self.load_factor = load_factor
+        self.smoothing = smoothing
+        self.posture = posture
+        super().__init__(
+            f"{posture}: {message} after {iterations} iterations; |g|={gradient_norm:.3e} N "
+            f"(tolerance {tolerance:.3e} N), min det F={min_det_F:.3e}, "
+            f"continuation reached load factor {load_factor:.4g}, δ={smoothing:.3e} m")
+
+
+@dataclass(frozen=True)
+class PostureSolution:
+    """Equilibrium of one posture. Positions in m, forces in N, energy in J."""
+
+    posture: Posture
+    position: np.ndarray
+    converged: bool
+    iterations: int
+    continuation_steps: int
+    gradient_norm: float
+    tolerance: float
+    energy: float
+    min_det_F: float
+    max_stretch: float
+    wall_time: float
+    extra: dict = field(default_factory=dict)
+
+
+class EquilibriumProblem:
+    """``J_h`` on the free dofs for one parameter set, gravity vector and δ."""
+
+    def __init__(self, model: "ForwardModel", params: Parameters, acceleration, smoothing):
+        self.model = model
+        ref = model.reference(params.R, params.H)
+        mesh = model.mesh
+        self.reference = ref
+        self.assembler = model.assembler(params.fold_angle)
+        self.bulk = BulkNeoHookean(ref, mesh.tets, params.lambda_breast, params.mu_breast)
+        self.gravity = Gravity(ref, mesh.tets, params.density, acceleration)
+        self.energy = Composite([
+            self.bulk,
+            SkinMembrane(ref, mesh.skin_triangles, params.lambda_skin, params.mu_skin, params.skin_thickness),
+            self.gravity,
+            Chassaignac(ref, mesh.back_triangles, params.chassaignac, smoothing),
+        ])
+        load = float(np.linalg.norm(self.gravity.load))
+        self.energy_scale = max(load, 1e-30) * params.R
+
+    def full(self, z):
+        """Node positions ``(N, 3)`` from the free dofs (fixed dofs at their reference values)."""
+        return self.assembler.expand(z, self.reference)
+
+    def free(self, x):
+        return self.assembler.restrict(x)
+
+    def value(self, z):
+        return self.energy.value(self.full(z))
+
+    def gradient(self, z):
+        return self.free(self.energy.gradient(self.full(z)))
+
+    def hessian(self, z, project=False):
+        return self.assembler.assemble(self.energy.hessian_blocks(self.full(z), project))
+
+
+class ForwardModel:
+    """Fixed-topology forward model on one reference mesh.
+
+    Parameters
+    ----------
+    mesh : CapMesh
+        The mesh whose topology is kept; ``(R, H)`` move its nodes smoothly.
+    options : SolverOptions
+    """
+
+    def __init__(self, mesh: CapMesh, options: SolverOptions = SolverOptions()):
+        self.mesh = mesh
+        self.options = options
+        self.map = CapMap(mesh)
+        self._assemblers = {}
+
+    def reference(self, R, H):
+        """Gravity-free node positions for ``(R, H)``, ``(N, 3)`` m."""
+        return self.map.positions(R, H)
+
+    def free_mask(self, fold_angle):
+        """``(N, 3)`` bool: fold nodes fixed, back nodes fixed in ``y`` (spec §2)."""
+        fold = self.mesh.fold if np.isclose(fold_angle, self.mesh.fold_angle) else refold(self.mesh, fold_angle).fold
+        free = np.ones((len(self.mesh.nodes), 3), dtype=bool)
+        free[self.mesh.back, 1] = False
+        free[fold] = False
+        return free
+
+    def assembler(self, fold_angle):
+        key = round(float(fold_angle), 9)
+        if key not in self._assemblers:
+            conns = [self.mesh.tets, self.mesh.skin_triangles, np.unique(self.mesh.back_triangles)[:, None]]
+            self._assemblers[key] = FreeDofAssembler(conns, self.free_mask(fold_angle))
+        return self._assemblers[key]
+
+    def problem(self, params, posture, load_factor=1.0, smoothing=None):
+        accel = load_factor * posture.gravity(params.gravity_magnitude)
+        return EquilibriumProblem(self, params, accel, params.smoothing if smoothing is None else smoothing)
+
+    def tolerance(self, params, posture):
+        """Absolute stopping tolerance: ``rtol`` × ‖gravity load vector‖ (N)."""
+        load = self.problem(params, posture).gravity.load
+        return self.options.rtol * float(np.linalg.norm(load))
+
+    def tangent(self, params, posture, position):
+        """Exact free-dof Hessian at ``position``, factorised (for sensitivities)."""
+        problem = self.problem(params, posture)
+        return problem, Factorization(problem.hessian(problem.free(position)))
+
+    def solve(self, params: Parameters, posture: Posture, start=None) -> PostureSolution:
+        """Equilibrium of ``posture``; see :func:`solve_posture`."""
+        return solve_posture(self, params, posture, start)
+
+
+def _minimise(model, problem, z, tolerance):
+    if model.options.method == "cg":
+        from .cg import conjugate_gradient
+        return conjugate_gradient(problem, z, tolerance, model.options.cg_max_iterations)
+    return newton(problem, z, tolerance, model.options.max_iterations)
+
+
+def _diagnostics(problem, x):
+    F = problem.bulk.deformation_gradient(x)
+    det = np.linalg.det(F)
+    stretch = np.sqrt(np.linalg.eigvalsh(np.einsum("nki,nkj->nij", F, F)).max())
+    return float(det.min()), float(stretch)
+
+
+def solve_posture(model: ForwardModel, params: Parameters, posture: Posture, start=None) -> PostureSolution:
+    r"""Minimise ``J_h`` for one posture by adaptive continuation.
+
+    The path parameter ``t`` runs over ``[0, 1]`` for the gravity load factor
+    (at δ = max(δ, ``smoothing_start``)) and then over ``[1, 2]`` for δ, lowered
+    log-linearly to its target. Each step is a Newton solve warm-started from the
+    last converged state; a failed step is halved, a good one lengthened ×2.
+    With ``start`` (a previous solution, ``(N, 3)``), the target problem is tried
+    directly first, and continuation in δ from ``start`` is the fallback.
+
+    Raises
+    ------
+    SolveError
+        When a continuation step falls below ``options.min_step``.
+    """
+    opts = model.options
+    tic = time.perf_counter()
+    tolerance = model.tolerance(params, posture)
+    loose = tolerance * opts.stage_rtol / opts.rtol
+    delta_target = params.smoothing
+    delta_start = max(delta_target, opts.smoothing_start)
+    decades = np.log10(delta_start / delta_target)
+
+    def level(t):
+        if t <= 1.0:
+            return t, delta_start
+        return 1.0, delta_start * 10.0 ** (-decades * (t - 1.0))
+
+    iterations = 0
+    steps = 0
+    reference = model.reference(params.R, params.H)
+    if start is not None:
+        problem = model.problem(params, posture)
+        z = problem.free(start)
+        if np.isfinite(problem.value(z)):
+            result = _minimise(model, problem, z, tolerance)
+            iterations += result.iterations
+            steps += 1
+            if result.success:
+                return _finish(problem, result, posture, iterations, steps, tic)
+        t, x = 1.0, np.asarray(start, dtype=float)
+        if not np.isfinite(model.problem(params, posture, 1.0, delta_start).value(z)):
+            t, x = 0.0, reference
+    else:
+        t, x = 0.0, reference
+    t_end = 2.0 if decades > 0 else 1.0
+    dt = 1.0
+    last = None
+    while True:
+        t_next = min(t + dt, t_end)
+        load, delta = level(t_next)
+        problem = model.problem(params, posture, load, delta)
+        final = t_next >= t_end
+        z = problem.free(x)
+        result = _minimise(model, problem, z, tolerance if final else loose)
+        iterations += result.iterations
+        steps += 1
+        last = (problem, result)
+        if result.success:
+            if final:
+                return _finish(problem, result, posture, iterations, steps, tic)
+            t, x = t_next, problem.full(result.x)
+            dt = min(2.0 * dt, 1.0)
+            continue
+        log.info("%s: continuation step t=%.4f→%.4f failed (%s); halving", posture.name, t, t_next, result.message)
+        dt *= 0.5
+        if dt < opts.min_step:
+            problem, result = last
+            min_det = _diagnostics(problem, problem.full(result.x))[0]
+            load, delta = level(t)
+            raise SolveError("continuation stalled: " + result.message, iterations=iterations,
+                             gradient_norm=result.gradient_norm, tolerance=tolerance, min_det_F=min_det,
+                             load_factor=load, smoothing=delta, posture=posture.name)
+
+
+def _finish(problem, result, posture, iterations, steps, tic):
+    x = problem.full(result.x)
+    min_det, stretch = _diagnostics(problem, x)
+    log.info("%s: converged in %d iterations (%d continuation steps), |g|=%.3e N", posture.name,
+             iterations, steps, result.gradient_norm)
+    return PostureSolution(posture, x, True, iterations, steps, result.gradient_norm, result.tolerance,
+                           result.energy, min_det, stretch, time.perf_counter() - tic)
