@@ -51,7 +51,7 @@ class SolverOptions:
     rtol: float = 1e-8
     stage_rtol: float = 1e-5
     smoothing_start: float = 1e-4
-    max_iterations: int = 40
+    max_iterations: int = 100
     min_step: float = 1.0 / 256
     cg_max_iterations: int = 20000
 
@@ -189,9 +189,12 @@ class ForwardModel:
         return EquilibriumProblem(self, params, accel, params.smoothing if smoothing is None else smoothing)
 
     def tolerance(self, params, posture):
-        """Absolute stopping tolerance: ``rtol`` × ‖gravity load vector‖ (N)."""
-        load = self.problem(params, posture).gravity.load
-        return self.options.rtol * float(np.linalg.norm(load))
+        """Absolute stopping tolerance: ``rtol`` × ‖gravity load vector‖ (N).
+
+        Without gravity (g = 0) the load is zero; the force scale ``μ R²`` replaces it.
+        """
+        load = float(np.linalg.norm(self.problem(params, posture).gravity.load))
+        return self.options.rtol * (load if load > 0 else params.mu_breast * params.R**2)
 
     def tangent(self, params, posture, position):
         """Exact free-dof Hessian at ``position``, factorised (for sensitivities)."""
@@ -222,8 +225,9 @@ def solve_posture(model: ForwardModel, params: Parameters, posture: Posture, sta
 
     The path parameter ``t`` runs over ``[0, 1]`` for the gravity load factor
     (at δ = max(δ, ``smoothing_start``)) and then over ``[1, 2]`` for δ, lowered
-    log-linearly to its target. Each step is a Newton solve warm-started from the
-    last converged state; a failed step is halved, a good one lengthened ×2.
+    log-linearly to its target, at most one decade per step. Each step is a Newton
+    solve warm-started from the last converged state; a failed step is halved, a
+    good one lengthened ×2.
     With ``start`` (a previous solution, ``(N, 3)``), the target problem is tried
     directly first, and continuation in δ from ``start`` is the fallback.
 
@@ -263,10 +267,11 @@ def solve_posture(model: ForwardModel, params: Parameters, posture: Posture, sta
     else:
         t, x = 0.0, reference
     t_end = 2.0 if decades > 0 else 1.0
-    dt = 1.0
+    max_delta_step = 1.0 / max(decades, 1.0)          # δ falls at most one decade per step
+    dt = 1.0 if t < 1.0 else max_delta_step
     last = None
     while True:
-        t_next = min(t + dt, t_end)
+        t_next = min(t + dt, 1.0 if t < 1.0 else t_end)
         load, delta = level(t_next)
         problem = model.problem(params, posture, load, delta)
         final = t_next >= t_end
@@ -275,11 +280,13 @@ def solve_posture(model: ForwardModel, params: Parameters, posture: Posture, sta
         iterations += result.iterations
         steps += 1
         last = (problem, result)
+        log.debug("%s: step t=%.4f load=%.4g δ=%.3e: %s in %d iterations", posture.name, t_next, load, delta,
+                  result.message, result.iterations)
         if result.success:
             if final:
                 return _finish(problem, result, posture, iterations, steps, tic)
             t, x = t_next, problem.full(result.x)
-            dt = min(2.0 * dt, 1.0)
+            dt = min(2.0 * dt, 1.0 if t < 1.0 else max_delta_step)
             continue
         log.info("%s: continuation step t=%.4f→%.4f failed (%s); halving", posture.name, t, t_next, result.message)
         dt *= 0.5

@@ -1,0 +1,6 @@
+"""Sub-commands of the ``breastcore`` command line, one module each."""
+
+from . import export, solve
+
+#: Each entry registers one sub-command on an argparse sub-parser collection.
+REGISTRY = [solve.register, export.register]

@@ -1,0 +1,230 @@
+"""Identification of ``Λ = (R, H, λ, μ, λ_s, μ_s)`` from measurements (issue #3, spec §5).
+
+Cost: ``E(Λ) = Σ_i w_i (M_i(Λ)/M̄_i − 1)²``.
+
+Methods
+-------
+``lm`` (default)
+    Levenberg–Marquardt in trust-region form (``scipy.optimize.least_squares``,
+    ``method="trf"``, exact subproblem) in the unconstrained variables
+    ``z = (ln R, logit(H/R), ln λ, ln μ, ln λ_s, ln μ_s)``: the bounds
+    ``R > 0``, ``0 < H < R`` and positive moduli hold by construction, and
+    the log scaling makes the six columns comparable. A step whose forward solve
+    fails returns a large residual, so it is rejected and the trust region shrinks
+    (the damping grows): a failed solve never ends the run.
+``gauss-newton``
+    The paper's method: forward-difference Jacobian with relative step ``ε``,
+    the step ``ΔΛ/Λ = (JᵀJ)⁻¹ Jᵀ (1 − m)`` (the paper's equation carries a stray
+    factor 2, which would double the Gauss–Newton step), stopped when
+    ``E(Λⁿ) − E(Λⁿ⁺¹) < ε_m``.
+"""
+
+from __future__ import annotations
+
+import logging
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy.optimize import least_squares
+
+from .forward import SolveError
+from .parameters import IDENTIFIED, ParameterError
+
+log = logging.getLogger(__name__)
+
+#: Residual returned for a Λ whose forward solve fails: cost ≫ any real one.
+FAILED_RESIDUAL = 1e3
+
+
+@dataclass(frozen=True)
+class IdentificationOptions:
+    """Settings of :func:`identify`; defaults documented in ``docs/identification.md``.
+
+    Attributes
+    ----------
+    method : {"lm", "gauss-newton"}
+    jacobian : {"implicit", "fd"}
+    fd_step : float
+        Relative step ε of the finite-difference Jacobian.
+    cost_tol : float
+        Gauss–Newton stops when the cost decrease is below ``cost_tol`` (ε_m).
+    xtol, ftol, gtol : float
+        ``least_squares`` stopping tolerances (LM).
+    max_iterations : int
+    noise : float
+        Relative 1σ measurement noise of the uncertainty model (0.10 = 10 %).
+    """
+
+    method: str = "lm"
+    jacobian: str = "implicit"
+    fd_step: float = 1e-4
+    cost_tol: float = 1e-14
+    xtol: float = 1e-10
+    ftol: float = 1e-12
+    gtol: float = 1e-12
+    max_iterations: int = 50
+    noise: float = 0.10
+
+    def __post_init__(self):
+        if self.method not in ("lm", "gauss-newton"):
+            raise ValueError(f"method must be 'lm' or 'gauss-newton', got {self.method!r}")
+        if self.jacobian not in ("implicit", "fd"):
+            raise ValueError(f"jacobian must be 'implicit' or 'fd', got {self.jacobian!r}")
+        if not (self.fd_step > 0 and self.noise > 0 and self.max_iterations > 0):
+            raise ValueError("fd_step, noise and max_iterations must be > 0")
+
+
+@dataclass
+class IdentificationResult:
+    """History and outcome of one identification. Parameters in SI units."""
+
+    success: bool
+    message: str
+    estimate: np.ndarray
+    parameters: list = field(default_factory=list)        # per iteration, (6,)
+    cost: list = field(default_factory=list)              # per iteration, E
+    measurement_error: list = field(default_factory=list) # per iteration, (posture, quantity) M/M̄ − 1
+    wall_time: list = field(default_factory=list)         # per iteration, s since start
+    jacobian: np.ndarray | None = None                    # (posture, quantity, 6) ∂(M/M̄)/∂ln Λ
+    solutions: dict | None = None
+    forward_solves: int = 0
+    failed_solves: int = 0
+
+
+def to_unconstrained(values):
+    R, H, *moduli = np.asarray(values, float)
+    s = H / R
+    return np.array([np.log(R), np.log(s / (1 - s)), *np.log(moduli)])
+
+
+def from_unconstrained(z):
+    z = np.asarray(z, float)
+    R = np.exp(z[0])
+    return np.array([R, R / (1 + np.exp(-z[1])), *np.exp(z[2:])])
+
+
+def unconstrained_chain(values):
+    """``dΛ/dz`` (6×6) of :func:`from_unconstrained` at ``Λ = values``."""
+    R, H = values[0], values[1]
+    s = H / R
+    T = np.diag(np.asarray(values, float))
+    T[1, 1] = R * s * (1 - s)
+    T[1, 0] = H
+    return T
+
+
+def relative_jacobian(mm, values, solutions, options):
+    """``∂M/∂Λ · Λ / M̄``-ready Jacobian ``∂M/∂Λ`` (posture, quantity, 6), SI."""
+    if options.jacobian == "implicit":
+        return mm.implicit_jacobian(values, solutions)
+    return mm.fd_jacobian(values, solutions, options.fd_step)
+
+
+def identify(mm, target, initial, options=IdentificationOptions(), weights=None) -> IdentificationResult:
+    """Find Λ minimising ``E`` for the measurements ``target`` (posture, quantity), SI units.
+
+    Raises
+    ------
+    SolveError
+        Only if the forward solve fails at the initial guess.
+    """
+    target = np.asarray(target, float)
+    w = np.ones_like(target) if weights is None else np.asarray(weights, float)
+    sqrt_w = np.sqrt(w)
+    result = IdentificationResult(False, "", np.asarray(initial, float))
+    tic = time.perf_counter()
+    solutions = mm.solve(initial)                    # a failure here is the caller's to report
+    mm.remember(solutions)
+
+    def record(values, sols):
+        error = mm.measure(sols) / target - 1.0
+        result.parameters.append(np.array(values, float))
+        result.measurement_error.append(error)
+        result.cost.append(float(np.sum(w * error**2)))
+        result.wall_time.append(time.perf_counter() - tic)
+        log.info("identify it=%d E=%.6e Λ=%s", len(result.cost) - 1, result.cost[-1],
+                 np.array2string(np.asarray(values), precision=6))
+
+    record(initial, solutions)
+    run = _levenberg_marquardt if options.method == "lm" else _gauss_newton
+    run(mm, target, sqrt_w, np.asarray(initial, float), solutions, options, result, record)
+    result.forward_solves = mm.solves
+    final = result.parameters[-1]
+    result.estimate = final
+    if result.solutions is None:
+        result.solutions = mm.solve(final)
+    dM = mm.implicit_jacobian(final, result.solutions) if options.jacobian == "implicit" else \
+        mm.fd_jacobian(final, result.solutions, options.fd_step)
+    result.jacobian = dM * np.asarray(final)[None, None, :] / target[..., None]
+    return result
+
+
+def _levenberg_marquardt(mm, target, sqrt_w, initial, solutions, options, result, record):
+    cache = {}
+
+    def fun(z):
+        values = from_unconstrained(z)
+        try:
+            sols = mm.solve(values, remember=False)
+        except (SolveError, ParameterError) as err:
+            result.failed_solves += 1
+            log.info("identify: step rejected, forward solve failed (%s)", err)
+            return np.full(target.size, FAILED_RESIDUAL)
+        cache[z.tobytes()] = (values, sols)
+        return (sqrt_w * (mm.measure(sols) / target - 1.0)).ravel()
+
+    def jac(z, *_):
+        values, sols = cache[z.tobytes()]
+        mm.remember(sols)                                 # accepted point: warm start from here
+        dM = relative_jacobian(mm, values, sols, options)
+        J = (sqrt_w[..., None] * dM / target[..., None]).reshape(target.size, -1)
+        return J @ unconstrained_chain(values)
+
+    def callback(intermediate_result):
+        values, sols = cache[intermediate_result.x.tobytes()]
+        result.solutions = sols
+        record(values, sols)
+
+    z0 = to_unconstrained(initial)
+    cache[z0.tobytes()] = (initial, solutions)
+    out = least_squares(fun, z0, jac=jac, method="trf", tr_solver="exact", x_scale=1.0,
+                        xtol=options.xtol, ftol=options.ftol, gtol=options.gtol,
+                        max_nfev=options.max_iterations * 4, callback=callback)
+    values, sols = cache[out.x.tobytes()]
+    if not np.allclose(result.parameters[-1], values, rtol=0, atol=0):
+        result.solutions = sols
+        record(values, sols)
+    result.success = bool(out.status > 0) and np.all(np.abs(out.fun) < FAILED_RESIDUAL)
+    result.message = out.message
+
+
+def _gauss_newton(mm, target, sqrt_w, initial, solutions, options, result, record):
+    values, sols = np.array(initial, float), solutions
+    cost = result.cost[-1]
+    for _ in range(options.max_iterations):
+        m = mm.measure(sols) / target
+        J = sqrt_w[..., None] * relative_jacobian(mm, values, sols, options) * values / target[..., None]
+        step, *_ = np.linalg.lstsq(J.reshape(target.size, -1), (sqrt_w * (1.0 - m)).ravel(), rcond=None)
+        for _halving in range(12):             # safeguard: keep Λ admissible and solvable
+            trial = values * (1.0 + step)
+            try:
+                if np.all(trial > 0) and trial[1] < trial[0]:
+                    trial_sols = mm.solve(trial)
+                    break
+            except (SolveError, ParameterError) as err:
+                result.failed_solves += 1
+                log.info("gauss-newton: halving, forward solve failed (%s)", err)
+            step = 0.5 * step
+        else:
+            result.message = "no admissible Gauss-Newton step"
+            return
+        values, sols = trial, trial_sols
+        result.solutions = sols
+        record(values, sols)
+        if cost - result.cost[-1] < options.cost_tol:
+            result.success = True
+            result.message = f"cost decrease below ε_m = {options.cost_tol:g}"
+            return
+        cost = result.cost[-1]
+    result.message = f"iteration limit ({options.max_iterations})"

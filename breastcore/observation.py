@@ -1,0 +1,121 @@
+"""The observation operator ``Λ → M(Λ)``: forward solves in every posture, then measurements.
+
+It caches the last equilibrium per posture so that each new ``Λ`` is solved from
+a warm start, and provides the two Jacobians of issue #3:
+
+- ``implicit``: at equilibrium ``g(u; p) = 0`` so ``du/dp = −K⁻¹ ∂g/∂p``, one
+  back-substitution per parameter with the factorised exact Hessian ``K``;
+- ``fd``: the paper's forward differences ``(M(Λ + ε Λ_j e_j) − M(Λ)) / (ε Λ_j)``,
+  one extra (warm-started) solve per parameter and posture.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .forward import ForwardModel
+from .measure import QUANTITIES, measure
+from .parameters import IDENTIFIED, Parameters
+
+
+class MeasurementModel:
+    """``Λ ↦ M(Λ)`` for fixed postures, measurement set and the non-identified constants.
+
+    Parameters
+    ----------
+    model : ForwardModel
+    base : Parameters
+        Supplies ρ, g, c, δ, t_s and θ_D; its Λ is replaced at each evaluation.
+    postures : sequence of Posture
+    measurement_set : {"paper15", "exact"}
+    """
+
+    def __init__(self, model: ForwardModel, base: Parameters, postures, measurement_set="paper15"):
+        self.model = model
+        self.base = base
+        self.postures = tuple(postures)
+        self.measurement_set = measurement_set
+        self.quantities = QUANTITIES
+        self._starts = {}
+        self.solves = 0
+
+    def params(self, values) -> Parameters:
+        return self.base.with_identified(values)
+
+    def solve(self, values, remember=True):
+        """Equilibria of all postures at ``Λ = values`` (warm-started). Raises SolveError."""
+        params = self.params(values)
+        solutions = {}
+        for posture in self.postures:
+            start = self._starts.get(posture.name)
+            solutions[posture.name] = self.model.solve(params, posture, start)
+            self.solves += 1
+        if remember:
+            self.remember(solutions)
+        return solutions
+
+    def remember(self, solutions):
+        """Use these equilibria as the warm starts of the next solves."""
+        self._starts = {name: s.position for name, s in solutions.items()}
+
+    def measure(self, solutions) -> np.ndarray:
+        """``(posture, quantity)`` array of measurements, SI units."""
+        rows = []
+        for posture in self.postures:
+            values = measure(self.model.mesh, solutions[posture.name].position, self.measurement_set)
+            rows.append([values[q] for q in self.quantities])
+        return np.array(rows)
+
+    def implicit_jacobian(self, values, solutions, rel_step=1e-6) -> np.ndarray:
+        """``∂M/∂Λ_j``, shape ``(posture, quantity, 6)``, in SI units per parameter unit.
+
+        Notes
+        -----
+        ``∂g/∂p`` is a central difference of the free-dof gradient at fixed free dofs
+        (exact to round-off for the moduli, on which ``g`` depends linearly; second
+        order for R and H, which move the reference nodes and the fold through the
+        smooth map). ``∂M/∂x·dx/dp`` is a central directional difference of the
+        measurement functions, which are smooth by construction.
+        """
+        params = self.params(values)
+        out = np.zeros((len(self.postures), len(self.quantities), len(IDENTIFIED)))
+        for i, posture in enumerate(self.postures):
+            x = solutions[posture.name].position
+            problem, factor = self.model.tangent(params, posture, x)
+            z = problem.free(x)
+            for j, name in enumerate(IDENTIFIED):
+                h = rel_step * values[j]
+                plus = self.model.problem(params.replace(**{name: values[j] + h}), posture)
+                minus = self.model.problem(params.replace(**{name: values[j] - h}), posture)
+                dg = (plus.gradient(z) - minus.gradient(z)) / (2 * h)
+                dx = (plus.full(z) - minus.full(z)) / (2 * h)        # moves the fixed dofs (fold) with R, H
+                dx[problem.assembler.free.reshape(-1, 3)] = -factor.solve(dg)
+                out[i, :, j] = self._directional(x, dx)
+        return out
+
+    def _directional(self, x, dx):
+        scale = 1e-7 / max(np.abs(dx).max(), 1e-300)                # a 0.1 µm move of the fastest node
+        plus = measure(self.model.mesh, x + scale * dx, self.measurement_set)
+        minus = measure(self.model.mesh, x - scale * dx, self.measurement_set)
+        return np.array([(plus[q] - minus[q]) / (2 * scale) for q in self.quantities])
+
+    def fd_jacobian(self, values, solutions, rel_step=1e-3, central=False) -> np.ndarray:
+        """Forward (or central) differences of ``M`` in each ``Λ_j``, with warm-started solves."""
+        base = self.measure(solutions)
+        self.remember(solutions)
+        out = np.zeros(base.shape + (len(IDENTIFIED),))
+        try:
+            for j in range(len(IDENTIFIED)):
+                h = rel_step * values[j]
+                plus = np.array(values, float)
+                plus[j] += h
+                m_plus = self.measure(self.solve(plus, remember=False))
+                if central:
+                    minus = np.array(values, float)
+                    minus[j] -= h
+                    out[..., j] = (m_plus - self.measure(self.solve(minus, remember=False))) / (2 * h)
+                else:
+                    out[..., j] = (m_plus - base) / h
+        finally:
+            self.remember(solutions)
+        return out

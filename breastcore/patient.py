@@ -1,0 +1,199 @@
+"""Patient measurements in clinical units (mm, cm², ml) from YAML, CSV or a dict, validated
+into SI with one-line :class:`~breastcore.measure.MeasurementError` messages naming the
+offending item, and checked for consistency (warnings). See ``docs/measurements.md``."""
+
+from __future__ import annotations
+
+import csv
+import math
+import warnings
+from collections.abc import Mapping
+from dataclasses import dataclass
+from pathlib import Path
+from types import MappingProxyType as _frozen
+
+import numpy as np
+import yaml
+
+from .measure import QUANTITIES, MeasurementError, check_measurement_set
+from .postures import PAPER_POSTURES, Posture, PostureError
+
+KIND = _frozen({q: q if q in ("volume", "area") else "length" for q in QUANTITIES})  #: physical kind
+#: Accepted units per kind and their factor to SI: ``value_SI = value × factor``.
+UNIT_FACTORS = _frozen({"length": _frozen({"m": 1.0, "cm": 1e-2, "mm": 1e-3}),
+                        "area": _frozen({"m2": 1.0, "cm2": 1e-4, "mm2": 1e-6}),
+                        "volume": _frozen({"m3": 1.0, "l": 1e-3, "ml": 1e-6, "cm3": 1e-6})})
+#: Units assumed for quantities a file does not give units for.
+DEFAULT_UNITS = _frozen({"volume": "ml", "area": "cm2", "height": "mm", "frontal_depth": "mm", "back_depth": "mm"})
+CONSISTENCY_FACTOR = 3.0  #: :func:`check_consistency` warns for a ratio to a cap outside [1/F, F].
+
+
+class MeasurementWarning(UserWarning):
+    """Physically inconsistent (but usable) patient measurements."""
+
+
+@dataclass(frozen=True, eq=False)
+class PatientMeasurements:
+    """Measured values of one patient in SI units (arrays are read-only copies).
+
+    Attributes
+    ----------
+    postures : tuple of Posture
+    quantities : tuple of str, always :data:`~breastcore.measure.QUANTITIES`.
+    values : (n_posture, 5) float array, in m3, m2, m, m, m; finite and > 0.
+    measurement_set : {"paper15", "exact"}
+    weights : (n_posture, 5) float array, finite and >= 0; default all 1.
+    """
+
+    postures: tuple
+    quantities: tuple
+    values: np.ndarray
+    measurement_set: str = "paper15"
+    weights: np.ndarray | None = None
+
+    def __post_init__(self):
+        check_measurement_set(self.measurement_set)
+        names = [p.name for p in self.postures]
+        shape = (len(names), len(QUANTITIES))
+        v = np.array(self.values, dtype=float)
+        w = np.ones(shape) if self.weights is None else np.array(self.weights, dtype=float)
+        if (tuple(self.quantities) != QUANTITIES or not names or len(set(names)) != len(names) or v.shape != shape
+                or w.shape != shape or not (np.isfinite(v) & (v > 0) & np.isfinite(w) & (w >= 0)).all()):
+            raise MeasurementError(f"need distinct postures, quantities {QUANTITIES}, values finite > 0 and "
+                                   f"weights finite >= 0 of shape {shape}")
+        v.setflags(write=False), w.setflags(write=False)
+        for name, value in (("values", v), ("weights", w), ("postures", tuple(self.postures))):
+            object.__setattr__(self, name, value)
+
+    @property
+    def posture_names(self) -> tuple:
+        return tuple(p.name for p in self.postures)
+
+
+def _unit(quantity, unit, where="") -> tuple:
+    text, table = str(unit).strip().lower().replace("²", "2").replace("³", "3"), UNIT_FACTORS[KIND[quantity]]
+    if text not in table:
+        raise MeasurementError(f"{where}{quantity}: unknown unit {unit!r} for a {KIND[quantity]}; "
+                               f"accepted: {', '.join(table)}")
+    return text, table[text]
+
+
+def _known(items, valid, what, hint=True):
+    for item in items:
+        if item not in valid:
+            raise MeasurementError(f"{what} {item!r}" + (f"; valid: {', '.join(map(str, valid))}" if hint else ""))
+
+
+def _mapping(obj, what, empty_ok=False):
+    if not isinstance(obj, Mapping) or not (obj or empty_ok):
+        raise MeasurementError(f"{what} must be a non-empty mapping, got {obj!r}")
+    return obj
+
+
+def _posture(name, angle=None) -> Posture:
+    if angle is None and name not in PAPER_POSTURES:
+        raise MeasurementError(f"unknown posture {name!r}; known: {', '.join(PAPER_POSTURES)} (or give an angle)")
+    try:
+        return Posture(str(name), float(PAPER_POSTURES[name] if angle is None else angle))
+    except PostureError as exc:
+        raise MeasurementError(str(exc)) from None
+    except (TypeError, ValueError):
+        raise MeasurementError(f"posture {name!r}: angle {angle!r} is not a number") from None
+
+
+def _number(value, what, positive=True) -> float:
+    try:
+        number = math.nan if isinstance(value, bool) else float(value)
+    except (TypeError, ValueError):
+        number = math.nan
+    if not (math.isfinite(number) and (number > 0 if positive else number >= 0)):
+        raise MeasurementError(f"{what} = {value!r} must be a finite number {'> 0' if positive else '>= 0'}")
+    return number
+
+
+def _build(table, measurement_set, weights) -> PatientMeasurements:
+    """``table``: name -> (Posture, {quantity: (value, unit)}); ``weights``: name -> {quantity: w}."""
+    _known(weights, list(table), "weights: unknown posture")
+    values, w = [], []
+    for name, (_, given) in table.items():
+        where = f"posture {name!r}: "
+        _known([*given, *weights.get(name, {})], QUANTITIES, f"{where}unknown quantity")
+        _known(QUANTITIES, given, f"{where}missing quantity", hint=False)
+        values.append([_number(given[q][0], f"{where}{q}") * _unit(q, given[q][1], where)[1] for q in QUANTITIES])
+        w.append([_number(weights.get(name, {}).get(q, 1.0), f"{where}{q} weight", False) for q in QUANTITIES])
+    result = PatientMeasurements(tuple(p for p, _ in table.values()), QUANTITIES, np.array(values),
+                                 check_measurement_set(measurement_set), np.array(w))
+    check_consistency(result)
+    return result
+
+
+def patient_from_dict(d) -> PatientMeasurements:
+    """Validate and convert the dict form (keys ``measurement_set``, ``units``, ``postures``, ``weights``)."""
+    _known(_mapping(d, "patient data"), ("measurement_set", "units", "postures", "weights"), "unknown key")
+    _known(_mapping(d.get("units") or {}, "units", True), QUANTITIES, "units: unknown quantity")
+    units = {q: _unit(q, u, "units: ")[0] for q, u in {**DEFAULT_UNITS, **(d.get("units") or {})}.items()}
+    weights = {k: _mapping(w, f"weights of posture {k!r}", True)
+               for k, w in _mapping(d.get("weights") or {}, "weights", True).items()}
+    table = {}
+    for name, entry in _mapping(d.get("postures"), "postures").items():
+        table[name] = (_posture(name, _mapping(entry, f"posture {name!r}").get("angle")),
+                       {q: (v, units.get(q, "")) for q, v in entry.items() if q != "angle"})
+    return _build(table, d.get("measurement_set", "paper15"), weights)
+
+
+def _read_csv(path, measurement_set) -> tuple:
+    table, weights = {}, {}
+    with open(path, newline="", encoding="utf-8") as f:
+        reader = csv.DictReader(f, skipinitialspace=True)
+        _known(("posture", "quantity", "value", "unit"), [h.strip() for h in reader.fieldnames or []],
+               f"{path}: missing CSV column", hint=False)
+        for line, row in enumerate(reader, start=2):
+            row = {k.strip(): (v or "").strip() for k, v in row.items() if k}
+            name, _, angle = row["posture"].partition("=")
+            posture = _posture(name.strip(), angle or None)
+            given = table.setdefault(posture.name, (posture, {}))[1]
+            if row["quantity"] in given:
+                raise MeasurementError(f"{path}:{line}: posture {posture.name!r}: "
+                                       f"duplicate quantity {row['quantity']!r}")
+            given[row["quantity"]] = (row["value"], row["unit"])
+            if row.get("weight"):
+                weights.setdefault(posture.name, {})[row["quantity"]] = row["weight"]
+    return _mapping(table, f"{path}: measurements"), measurement_set, weights
+
+
+def load_patient(path, measurement_set=None) -> PatientMeasurements:
+    """Read a ``.yaml``/``.yml`` (dict form) or ``.csv`` file; ``measurement_set`` (default
+    the YAML file's, else ``"paper15"``) must agree with the YAML file's if both are given."""
+    path = Path(path)
+    _known([path.suffix.lower()], (".yaml", ".yml", ".csv"), f"{path}: unknown patient file type")
+    if path.suffix.lower() == ".csv":
+        return _build(*_read_csv(path, measurement_set or "paper15"))
+    data = yaml.safe_load(path.read_text(encoding="utf-8"))
+    if measurement_set is not None and isinstance(data, Mapping):
+        if data.setdefault("measurement_set", measurement_set) != measurement_set:
+            raise MeasurementError(f"{path}: measurement_set {data['measurement_set']!r} != {measurement_set!r}")
+    return patient_from_dict(data)
+
+
+def check_consistency(patient) -> None:
+    """Warn (:class:`MeasurementWarning`) about physically inconsistent postures.
+
+    Notes
+    -----
+    The spherical cap of height ``MP`` (back_depth) and skin area ``A = π (a² + MP²)`` has
+    ``V_cap = π MP (3a² + MP²) / 6``. Warn if back_depth > frontal_depth, if ``a² <= 0``, or if
+    ``V / V_cap`` or ``height / (2a)`` is outside ``[1/F, F]``, ``F = CONSISTENCY_FACTOR`` (3).
+    """
+    F = CONSISTENCY_FACTOR
+    for name, (v, area, h, f, mp) in zip(patient.posture_names, patient.values):
+        a = math.sqrt(max(area / math.pi - mp**2, 0.0))
+        v_cap = math.pi * mp * (3.0 * a * a + mp**2) / 6.0
+        for bad, message in (
+                (mp > f, f"back_depth {mp * 1e3:.4g} mm exceeds frontal_depth {f * 1e3:.4g} mm"),
+                (a == 0, f"area {area * 1e4:.4g} cm2 is below π·back_depth² = {math.pi * mp**2 * 1e4:.4g} cm2"),
+                (a > 0 and not 1 / F <= v / v_cap <= F, f"volume {v * 1e6:.4g} ml is not within a factor "
+                 f"{F:g} of {v_cap * 1e6:.4g} ml, the spherical cap with this back_depth and area"),
+                (a > 0 and not 1 / F <= h / (2 * a) <= F, f"height {h * 1e3:.4g} mm is not within a factor "
+                 f"{F:g} of the base diameter {2e3 * a:.4g} mm implied by area and back_depth")):
+            if bad:
+                warnings.warn(f"posture {name!r}: {message}", MeasurementWarning, stacklevel=4)

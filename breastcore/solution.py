@@ -1,0 +1,79 @@
+"""Solve several postures and store them as the solution dataset (issue #2, §5)."""
+
+from __future__ import annotations
+
+import numpy as np
+import xarray as xr
+
+from .datasets import _var, mesh_coords, mesh_from_dataset, mesh_variables, parameter_variables, parameters_from_dataset, provenance
+from .forward import ForwardModel, PostureSolution, SolverOptions
+from .parameters import Parameters
+from .postures import Posture
+
+#: Per-posture solver diagnostics stored in the dataset: name -> (units, long name).
+DIAGNOSTICS = {
+    "newton_iterations": ("1", "minimiser iterations over all continuation steps"),
+    "continuation_steps": ("1", "continuation steps (gravity ramp and δ decrease)"),
+    "gradient_norm": ("N", "free-dof gradient norm of the discrete energy at the solution"),
+    "tolerance": ("N", "stopping tolerance: rtol × gravity load norm"),
+    "energy": ("J", "discrete energy J_h at the solution"),
+    "min_det_F": ("1", "smallest det F over the tetrahedra"),
+    "max_stretch": ("1", "largest principal stretch over the tetrahedra"),
+    "wall_time": ("s", "wall-clock time of the solve"),
+}
+
+
+def solve_postures(model: ForwardModel, params: Parameters, postures, starts=None) -> list[PostureSolution]:
+    """Equilibrium of each posture; ``starts`` maps posture name to a warm start ``(N, 3)``."""
+    starts = starts or {}
+    return [model.solve(params, p, starts.get(p.name)) for p in postures]
+
+
+def solution_dataset(mesh, params: Parameters, solutions, options: SolverOptions, *,
+                     mesh_level="custom", config_hash=None) -> xr.Dataset:
+    """The solution dataset: mesh, parameters, positions and diagnostics per posture."""
+    names = [s.posture.name for s in solutions]
+    data = mesh_variables(mesh)
+    data.update(parameter_variables(params))
+    data["position"] = _var(("posture", "node", "xyz"), np.stack([s.position for s in solutions]), "m",
+                            "equilibrium node position under gravity (torso frame)")
+    data["gravity"] = _var(("posture", "xyz"), np.stack([s.posture.gravity(params.gravity_magnitude) for s in solutions]),
+                           "m s-2", "gravitational acceleration a_g in the torso frame")
+    data["posture_angle"] = _var(("posture",), np.array([s.posture.angle for s in solutions]), "degree",
+                                 "forward-bend angle θ")
+    data["converged"] = _var(("posture",), np.array([s.converged for s in solutions], np.int8), "1",
+                             "1 if the solve met its tolerance")
+    for name, (units, long_name) in DIAGNOSTICS.items():
+        attr = "iterations" if name == "newton_iterations" else name
+        data[name] = _var(("posture",), np.array([getattr(s, attr) for s in solutions]), units, long_name)
+    coords = mesh_coords()
+    coords["posture"] = _var(("posture",), np.array(names), "1", "posture name")
+    ds = xr.Dataset(data, coords=coords)
+    ds.attrs = provenance("solve", params, config_hash, mesh_level=mesh_level, solver=options.method,
+                          solver_options={k: getattr(options, k) for k in options.__dataclass_fields__},
+                          title="breastcore equilibrium shapes per posture")
+    return ds
+
+
+def postures_from_dataset(ds: xr.Dataset) -> list[Posture]:
+    return [Posture(str(n), float(a)) for n, a in zip(ds["posture"].values, ds["posture_angle"].values)]
+
+
+def equilibrium_residual(ds: xr.Dataset, posture: str):
+    """Recompute ``(‖free-dof gradient‖, tolerance)`` in N from a saved solution.
+
+    Independent of the solver's own bookkeeping: rebuilds the mesh, parameters and
+    energy from the dataset and differentiates the discrete energy at ``position``.
+    """
+    mesh = mesh_from_dataset(ds)
+    params = parameters_from_dataset(ds)
+    model = ForwardModel(mesh, SolverOptions(rtol=float(_json_attr(ds, "solver_options")["rtol"])))
+    p = next(p for p in postures_from_dataset(ds) if p.name == posture)
+    problem = model.problem(params, p)
+    x = ds["position"].sel(posture=posture).values
+    return float(np.linalg.norm(problem.gradient(problem.free(x)))), model.tolerance(params, p)
+
+
+def _json_attr(ds, key):
+    import json
+    return json.loads(ds.attrs[key])

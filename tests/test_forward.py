@@ -1,0 +1,89 @@
+"""Forward solves: equilibrium recomputed from the saved dataset, warm starts,
+the CG baseline at the same tolerance, and typed failures with diagnostics."""
+
+import numpy as np
+import pytest
+
+from breastcore.cli import main
+from breastcore.datasets import open_dataset
+from breastcore.forward import ForwardModel, SolveError, SolverOptions
+from breastcore.mesh import mesh_level
+from breastcore.parameters import Parameters
+from breastcore.postures import Posture, paper_postures
+from breastcore.solution import equilibrium_residual
+
+
+@pytest.fixture(scope="module")
+def coarse():
+    return mesh_level("coarse")
+
+
+@pytest.mark.parametrize("level", ["coarse", "thin"])
+def test_saved_solution_is_in_equilibrium(tmp_path, level):
+    out = tmp_path / f"{level}.nc"
+    assert main(["solve", "--mesh", level, "--out", str(out)]) == 0
+    ds = open_dataset(out)
+    assert list(ds["posture"].values) == ["standing", "bent45", "fours"]
+    for name in ds["posture"].values:
+        g_norm, tol = equilibrium_residual(ds, str(name))
+        load = np.linalg.norm(ds["gravity"].sel(posture=name).values)
+        assert tol == pytest.approx(1e-8 * tol / 1e-8) and tol > 0 and load == pytest.approx(9.81)
+        assert g_norm <= tol
+    # the breast sags: standing moves the nipple down, on all fours forward
+    nipple = int(ds["landmark_node"].sel(landmark="nipple"))
+    u = ds["position"][:, nipple] - ds["reference_position"][nipple]
+    assert float(u.sel(posture="standing", xyz="z")) < -0.02
+    assert float(u.sel(posture="fours", xyz="y")) > 0.005
+
+
+def test_tolerance_is_relative_to_gravity_load(coarse):
+    model = ForwardModel(coarse)
+    p = Parameters()
+    load = model.problem(p, Posture("standing", 0.0)).gravity.load
+    assert model.tolerance(p, Posture("standing", 0.0)) == pytest.approx(1e-8 * np.linalg.norm(load))
+
+
+def test_warm_start_after_small_change_is_cheap(coarse):
+    model = ForwardModel(coarse)
+    p = Parameters()
+    posture = Posture("standing", 0.0)
+    cold = model.solve(p, posture)
+    changed = p.with_identified([v * 1.01 for v in p.identified()])
+    warm = model.solve(changed, posture, start=cold.position)
+    assert warm.converged and warm.gradient_norm <= warm.tolerance
+    assert warm.iterations < cold.iterations
+    assert warm.continuation_steps == 1
+
+
+def test_cg_baseline_reaches_the_same_tolerance(coarse):
+    p = Parameters()
+    posture = Posture("bent45", 45.0)
+    newton = ForwardModel(coarse).solve(p, posture)
+    cg = ForwardModel(coarse, SolverOptions(method="cg")).solve(p, posture)
+    assert cg.gradient_norm <= cg.tolerance == pytest.approx(newton.tolerance)
+    nipple = coarse.landmarks["nipple"]
+    assert np.allclose(cg.position[nipple], newton.position[nipple], atol=1e-4)
+
+
+def test_failure_raises_typed_error_with_diagnostics(coarse):
+    model = ForwardModel(coarse, SolverOptions(max_iterations=1, min_step=0.5))
+    with pytest.raises(SolveError) as info:
+        model.solve(Parameters(), Posture("standing", 0.0))
+    err = info.value
+    assert err.iterations >= 1 and err.gradient_norm > err.tolerance > 0
+    assert np.isfinite(err.min_det_F) and 0 <= err.load_factor <= 1 and err.smoothing > 0
+    assert "min det F" in str(err)
+
+
+def test_intermediate_posture_angle_lies_between_neighbours(coarse):
+    model = ForwardModel(coarse)
+    p = Parameters()
+    nipple = coarse.landmarks["nipple"]
+    z = [model.solve(p, Posture(f"a{int(a)}", a)).position[nipple, 2] for a in (0.0, 20.0, 45.0)]
+    assert z[0] < z[1] < z[2]
+
+
+def test_no_gravity_leaves_the_cap_at_rest(coarse):
+    model = ForwardModel(coarse)
+    sol = model.solve(Parameters(gravity_magnitude=0.0), Posture("standing", 0.0))
+    assert np.allclose(sol.position, model.reference(Parameters().R, Parameters().H), atol=1e-12)

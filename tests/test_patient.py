@@ -1,0 +1,204 @@
+"""Patient input files: unit conversion, YAML/CSV/dict equivalence, validation
+messages that name the item, and consistency warnings."""
+
+import copy
+import math
+import warnings
+
+import numpy as np
+import pytest
+import yaml
+
+from breastcore.measure import QUANTITIES, MeasurementError
+from breastcore.patient import (DEFAULT_UNITS, UNIT_FACTORS, MeasurementWarning, PatientMeasurements,
+                                check_consistency, load_patient, patient_from_dict)
+from breastcore.postures import Posture
+
+ROWS = {"standing": (480, 310, 150, 62, 55), "bent45": (480, 320, 140, 75, 70), "fours": (480, 330, 130, 85, 80)}
+SI = np.array([[4.8e-4, 0.031, 0.150, 0.062, 0.055],
+               [4.8e-4, 0.032, 0.140, 0.075, 0.070],
+               [4.8e-4, 0.033, 0.130, 0.085, 0.080]])
+
+
+def good():
+    return {"measurement_set": "paper15",
+            "units": {"volume": "ml", "area": "cm2", "height": "mm", "frontal_depth": "mm", "back_depth": "mm"},
+            "postures": {p: dict(zip(QUANTITIES, v)) for p, v in ROWS.items()}}
+
+
+def csv_text(rows=ROWS, units=("ml", "cm2", "mm", "mm", "mm")):
+    lines = ["posture,quantity,value,unit"]
+    lines += [f"{p},{q},{v},{u}" for p, vals in rows.items() for q, v, u in zip(QUANTITIES, vals, units)]
+    return "\n".join(lines) + "\n"
+
+
+@pytest.fixture(autouse=True)
+def no_stray_warnings():
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", MeasurementWarning)
+        yield
+
+
+def test_yaml_file_converts_to_si(tmp_path):
+    path = tmp_path / "patient.yaml"
+    path.write_text(yaml.safe_dump(good(), sort_keys=False))
+    pm = load_patient(path)
+    assert pm.posture_names == ("standing", "bent45", "fours")
+    assert pm.postures[1] == Posture("bent45", 45.0)
+    assert pm.quantities == QUANTITIES and pm.measurement_set == "paper15"
+    np.testing.assert_allclose(pm.values, SI, rtol=1e-14)
+    assert pm.values[0, 0] == pytest.approx(4.8e-4) and pm.values[0, 1] == pytest.approx(0.031)
+    assert pm.values[0, 3] == pytest.approx(0.062)
+    np.testing.assert_array_equal(pm.weights, np.ones((3, 5)))
+    with pytest.raises(ValueError):
+        pm.values[0, 0] = 1.0  # read-only
+
+
+def test_csv_yaml_and_dict_agree(tmp_path):
+    (tmp_path / "p.csv").write_text(csv_text())
+    data = good()
+    del data["units"], data["measurement_set"]  # defaults: ml, cm2, mm; paper15
+    (tmp_path / "p.yml").write_text(yaml.safe_dump(data, sort_keys=False))
+    results = [load_patient(tmp_path / "p.csv"), load_patient(tmp_path / "p.yml"), patient_from_dict(good())]
+    for pm in results:
+        np.testing.assert_allclose(pm.values, SI, rtol=1e-14)
+        assert pm.posture_names == results[0].posture_names and pm.measurement_set == "paper15"
+
+
+def test_csv_other_units_weights_and_angle(tmp_path):
+    rows = {"standing": (0.48, 31000, 15, 6.2, 5.5), "seated=30": (0.48, 31000, 15, 6.2, 5.5)}
+    text = csv_text(rows, units=("l", "mm2", "cm", "cm", "cm")).replace("unit\n", "unit,weight\n", 1)
+    text = text.replace(",l\n", ",l,2\n", 1)
+    (tmp_path / "p.csv").write_text(text)
+    pm = load_patient(tmp_path / "p.csv", measurement_set="exact")
+    assert pm.postures == (Posture("standing", 0.0), Posture("seated", 30.0))
+    np.testing.assert_allclose(pm.values, np.tile(SI[0], (2, 1)), rtol=1e-14)
+    assert pm.weights[0, 0] == 2.0 and pm.weights.sum() == 11.0 and pm.measurement_set == "exact"
+
+
+@pytest.mark.parametrize("quantity, unit, value, si", [
+    ("volume", "m3", 4.8e-4, 4.8e-4), ("volume", "cm3", 480, 4.8e-4), ("volume", "mL", 480, 4.8e-4),
+    ("volume", "l", 0.48, 4.8e-4), ("area", "m2", 0.031, 0.031), ("area", "cm²", 310, 0.031),
+    ("area", "mm2", 31000, 0.031), ("height", "cm", 15, 0.15), ("height", "m", 0.15, 0.15),
+    ("back_depth", "mm", 55, 0.055)])
+def test_unit_table(quantity, unit, value, si):
+    data = good()
+    data["units"][quantity] = unit
+    for entry in data["postures"].values():
+        entry[quantity] = value
+    assert patient_from_dict(data).values[0, QUANTITIES.index(quantity)] == pytest.approx(si, rel=1e-14)
+    assert set(DEFAULT_UNITS.values()) <= set().union(*UNIT_FACTORS.values())
+
+
+def test_angle_posture_and_weights_in_dict():
+    data = good()
+    data["postures"]["tilt"] = {"angle": 30, **data["postures"]["bent45"]}
+    data["weights"] = {"tilt": {"volume": 0.5}, "fours": {"height": 0}}
+    pm = patient_from_dict(data)
+    assert pm.postures[-1] == Posture("tilt", 30.0)
+    assert pm.weights[3, 0] == 0.5 and pm.weights[2, 2] == 0.0 and pm.weights.sum() == 18.5
+
+
+def _set(path, value):
+    def change(d):
+        *keys, last = path
+        for k in keys:
+            d = d[k]
+        if value is KeyError:
+            del d[last]
+        else:
+            d[last] = value
+    return change
+
+
+BAD = {
+    "zero value": (_set(["postures", "standing", "volume"], 0), ["standing", "volume"]),
+    "negative value": (_set(["postures", "fours", "height"], -3), ["fours", "height"]),
+    "nan value": (_set(["postures", "bent45", "area"], math.nan), ["bent45", "area"]),
+    "inf value": (_set(["postures", "bent45", "back_depth"], math.inf), ["bent45", "back_depth"]),
+    "text value": (_set(["postures", "standing", "height"], "tall"), ["standing", "height", "tall"]),
+    "bool value": (_set(["postures", "standing", "height"], True), ["standing", "height"]),
+    "unknown posture": (_set(["postures", "sitting"], dict(zip(QUANTITIES, ROWS["fours"]))), ["sitting"]),
+    "bad angle": (_set(["postures", "sitting"], {"angle": 120, **dict(zip(QUANTITIES, ROWS["fours"]))}),
+                  ["sitting", "120"]),
+    "unknown quantity": (_set(["postures", "fours", "volumen"], 480), ["fours", "volumen"]),
+    "missing quantity": (_set(["postures", "bent45", "frontal_depth"], KeyError), ["bent45", "frontal_depth"]),
+    "unknown unit": (_set(["units", "height"], "inch"), ["height", "inch"]),
+    "unit of wrong kind": (_set(["units", "volume"], "cm2"), ["volume", "cm2"]),
+    "unknown unit quantity": (_set(["units", "weight"], "kg"), ["weight"]),
+    "unknown set": (_set(["measurement_set"], "paper16"), ["paper16"]),
+    "unknown key": (_set(["posture"], {}), ["posture"]),
+    "no postures": (_set(["postures"], {}), ["postures"]),
+    "negative weight": (_set(["weights"], {"fours": {"area": -1}}), ["fours", "area", "weight"]),
+    "weight for unknown posture": (_set(["weights"], {"supine": {"area": 1}}), ["supine"]),
+}
+
+
+@pytest.mark.parametrize("case", list(BAD))
+def test_bad_input_names_the_item(case):
+    change, names = BAD[case]
+    data = copy.deepcopy(good())
+    change(data)
+    with pytest.raises(MeasurementError) as err:
+        patient_from_dict(data)
+    message = str(err.value)
+    assert "\n" not in message
+    for name in names:
+        assert name in message, (case, message)
+
+
+@pytest.mark.parametrize("text, names", [
+    ("posture,quantity,value\nstanding,volume,480\n", ["unit"]),
+    (csv_text() + "standing,volume,500,ml\n", ["standing", "volume", "duplicate"]),
+    (csv_text().replace("fours,height,130,mm", "fours,height,130,ft"), ["fours", "height", "ft"]),
+    (csv_text().replace("fours,", "supine,"), ["supine"]),
+    (csv_text().replace("fours,area,330", "fours,area,-330"), ["fours", "area"]),
+    ("posture,quantity,value,unit\n", ["measurements"]),
+])
+def test_bad_csv_names_the_item(tmp_path, text, names):
+    (tmp_path / "p.csv").write_text(text)
+    with pytest.raises(MeasurementError) as err:
+        load_patient(tmp_path / "p.csv")
+    assert "\n" not in str(err.value) and all(n in str(err.value) for n in names), str(err.value)
+
+
+def test_file_level_errors(tmp_path):
+    (tmp_path / "p.yaml").write_text(yaml.safe_dump(good(), sort_keys=False))
+    with pytest.raises(MeasurementError, match="exact"):
+        load_patient(tmp_path / "p.yaml", measurement_set="exact")
+    with pytest.raises(MeasurementError, match=r"\.txt"):
+        load_patient(tmp_path / "p.txt")
+    with pytest.raises(MeasurementError, match="patient data"):
+        patient_from_dict([1, 2])
+
+
+@pytest.mark.parametrize("quantity, value, words", [
+    ("back_depth", 70, ["back_depth", "frontal_depth"]),   # nipple in front of the most frontal point
+    ("volume", 5000, ["volume"]),                           # 5 l for a 310 cm2 breast
+    ("volume", 100, ["volume"]),
+    ("height", 600, ["height"]),
+    ("height", 40, ["height"]),
+    ("area", 90, ["area"]),                                 # below π MP², no cap fits
+])
+def test_inconsistent_input_warns(quantity, value, words):
+    data = good()
+    data["postures"]["standing"][quantity] = value
+    with warnings.catch_warnings():
+        warnings.simplefilter("default", MeasurementWarning)
+        with pytest.warns(MeasurementWarning) as record:
+            pm = patient_from_dict(data)
+    messages = " ".join(str(w.message) for w in record)
+    assert "standing" in messages and all(w in messages for w in words), messages
+    assert pm.values.shape == (3, 5)  # still usable
+
+
+def test_dataclass_validation_and_direct_check():
+    postures = (Posture("standing", 0.0),)
+    pm = PatientMeasurements(postures, QUANTITIES, SI[:1])
+    assert pm.measurement_set == "paper15" and np.array_equal(pm.weights, np.ones((1, 5)))
+    check_consistency(pm)  # consistent: no warning (warnings are errors here)
+    for bad in (dict(values=-SI[:1]), dict(values=SI), dict(measurement_set="scan"),
+                dict(weights=np.full((1, 5), np.nan))):
+        kwargs = dict(postures=postures, quantities=QUANTITIES, values=SI[:1]) | bad
+        with pytest.raises(MeasurementError):
+            PatientMeasurements(**kwargs)
