@@ -135,7 +135,7 @@ def identify(mm, target, initial, options=IdentificationOptions(), weights=None)
     result = IdentificationResult(False, "", np.asarray(initial, float))
     tic = time.perf_counter()
     solutions = mm.solve(initial)                    # a failure here is the caller's to report
-    mm.remember(solutions)
+    mm.remember(solutions, initial)
 
     def record(values, sols):
         error = mm.measure(sols) / target - 1.0
@@ -176,7 +176,7 @@ def _levenberg_marquardt(mm, target, sqrt_w, initial, solutions, options, result
 
     def jac(z, *_):
         values, sols = cache[z.tobytes()]
-        mm.remember(sols)                                 # accepted point: warm start from here
+        mm.remember(sols, values)                         # accepted point: warm start from here
         dM = relative_jacobian(mm, values, sols, options)
         J = (sqrt_w[..., None] * dM / target[..., None]).reshape(target.size, -1)
         return J @ unconstrained_chain(values)

@@ -28,15 +28,25 @@ class MeasurementModel:
         Supplies ρ, g, c, δ, t_s and θ_D; its Λ is replaced at each evaluation.
     postures : sequence of Posture
     measurement_set : {"paper15", "exact"}
+    warm_radius : float
+        Warm-start a solve only from equilibria whose Λ is within this relative
+        distance (max over the six parameters) of the new Λ; farther away, solve
+        cold. The standing posture has more than one local equilibrium near the
+        fold (the sliding back can settle in two states, 0.03 % apart in energy):
+        a warm start from far away can land on another branch than the cold path
+        that defines ``M(Λ)``, while nearby warm starts follow the same branch.
     """
 
-    def __init__(self, model: ForwardModel, base: Parameters, postures, measurement_set="paper15"):
+    def __init__(self, model: ForwardModel, base: Parameters, postures, measurement_set="paper15",
+                 warm_radius=0.05):
         self.model = model
         self.base = base
         self.postures = tuple(postures)
         self.measurement_set = measurement_set
         self.quantities = QUANTITIES
+        self.warm_radius = warm_radius
         self._starts = {}
+        self._start_values = None
         self.solves = 0
 
     def params(self, values) -> Parameters:
@@ -45,18 +55,21 @@ class MeasurementModel:
     def solve(self, values, remember=True):
         """Equilibria of all postures at ``Λ = values`` (warm-started). Raises SolveError."""
         params = self.params(values)
+        near = self._start_values is not None and \
+            np.max(np.abs(np.asarray(values) / self._start_values - 1.0)) <= self.warm_radius
         solutions = {}
         for posture in self.postures:
-            start = self._starts.get(posture.name)
+            start = self._starts.get(posture.name) if near else None
             solutions[posture.name] = self.model.solve(params, posture, start)
             self.solves += 1
         if remember:
-            self.remember(solutions)
+            self.remember(solutions, values)
         return solutions
 
-    def remember(self, solutions):
-        """Use these equilibria as the warm starts of the next solves."""
+    def remember(self, solutions, values):
+        """Use these equilibria (at ``Λ = values``) as the warm starts of the next solves."""
         self._starts = {name: s.position for name, s in solutions.items()}
+        self._start_values = np.array(values, dtype=float)
 
     def measure(self, solutions) -> np.ndarray:
         """``(posture, quantity)`` array of measurements, SI units."""
@@ -102,7 +115,7 @@ class MeasurementModel:
     def fd_jacobian(self, values, solutions, rel_step=1e-3, central=False) -> np.ndarray:
         """Forward (or central) differences of ``M`` in each ``Λ_j``, with warm-started solves."""
         base = self.measure(solutions)
-        self.remember(solutions)
+        self.remember(solutions, values)
         out = np.zeros(base.shape + (len(IDENTIFIED),))
         try:
             for j in range(len(IDENTIFIED)):
@@ -117,5 +130,5 @@ class MeasurementModel:
                 else:
                     out[..., j] = (m_plus - base) / h
         finally:
-            self.remember(solutions)
+            self.remember(solutions, values)
         return out

@@ -1,0 +1,42 @@
+"""``breastcore measure``: the 5 measurements per posture, from a solution or a patient file."""
+
+from __future__ import annotations
+
+from ..cli import UsageError, existing_file, writable_path
+
+
+def register(sub):
+    p = sub.add_parser("measure", help="measure a solution (or convert a patient file) into a measurement dataset",
+                       description="Write measurement(posture, quantity) in SI units (m3, m2, m). Give either a "
+                                   "solution dataset or --patient FILE (YAML or CSV in mm, cm2, ml).")
+    p.add_argument("solution", nargs="?", type=existing_file("SOLUTION"), metavar="SOLUTION.nc")
+    p.add_argument("--patient", type=existing_file("--patient"), metavar="FILE",
+                   help="patient measurements (.yaml/.yml/.csv) in clinical units")
+    p.add_argument("--set", dest="measurement_set", choices=["paper15", "exact"], default=None,
+                   help="paper15 (tape and ruler formulas, default) or exact (mesh volume and skin area)")
+    p.add_argument("--out", required=True, type=writable_path("--out"), metavar="M.nc")
+    p.set_defaults(run=run)
+
+
+def run(args):
+    from ..datasets import open_dataset, parameters_from_dataset, write_netcdf
+    from ..measure import MeasurementError
+    from ..patient import load_patient
+    from ..targets import measure_solution, measurement_dataset
+
+    if (args.solution is None) == (args.patient is None):
+        raise UsageError("give exactly one of SOLUTION.nc or --patient FILE")
+    if args.patient is not None:
+        try:
+            target = load_patient(args.patient, args.measurement_set)
+        except MeasurementError as err:
+            raise UsageError(f"--patient: {err}") from None
+        ds = measurement_dataset(target, "patient")
+    else:
+        solution = open_dataset(args.solution)
+        target, marks = measure_solution(solution, args.measurement_set or "paper15")
+        ds = measurement_dataset(target, str(args.solution), landmarks=marks,
+                                 truth=parameters_from_dataset(solution))
+    write_netcdf(ds, args.out)
+    print(ds["measurement"].to_pandas().to_string() if hasattr(ds["measurement"], "to_pandas") else ds["measurement"])
+    print(f"wrote {args.out}")

@@ -1,0 +1,78 @@
+"""The identification dataset: history, estimate, shapes, Jacobian and uncertainty."""
+
+from __future__ import annotations
+
+import numpy as np
+import xarray as xr
+
+from .datasets import _var, mesh_coords, mesh_variables, provenance
+from .measure import QUANTITIES
+from .mesh import refold
+from .parameters import IDENTIFIED, PARAMETER_INFO
+from .uncertainty import Z95, conditioning, intervals, log_covariance
+
+_PARAM_UNITS = " ".join(PARAMETER_INFO[p].units for p in IDENTIFIED)
+
+
+def identification_dataset(result, mm, target, options, *, initial, truth=None, mesh_level="custom",
+                           config_hash=None) -> xr.Dataset:
+    """Build the dataset of one :class:`~breastcore.identify.IdentificationResult`."""
+    estimate = np.asarray(result.estimate, float)
+    J = result.jacobian.reshape(-1, len(IDENTIFIED))
+    weights = np.asarray(target.weights, float).ravel()
+    cov_log = log_covariance(J, options.noise, weights)
+    low, high = intervals(estimate, cov_log)
+    singular, rank, cond = conditioning(np.sqrt(weights)[:, None] * J)
+    postures = [p.name for p in target.postures]
+    data = {
+        "parameters": _var(("iteration", "parameter"), np.array(result.parameters), _PARAM_UNITS,
+                           "parameter values per accepted iteration; units per parameter in parameter_units"),
+        "cost": _var(("iteration",), np.array(result.cost), "1", "cost E = Σ w (M/M̄ − 1)²"),
+        "measurement_error": _var(("iteration", "posture", "quantity"), np.array(result.measurement_error), "1",
+                                  "relative measurement error M(Λ)/M̄ − 1"),
+        "wall_time": _var(("iteration",), np.array(result.wall_time), "s", "wall time since the start"),
+        "initial": _var(("parameter",), np.asarray(initial, float), _PARAM_UNITS, "initial guess"),
+        "estimate": _var(("parameter",), estimate, _PARAM_UNITS, "identified parameters"),
+        "jacobian": _var(("posture", "quantity", "parameter"), result.jacobian, "1",
+                         "relative Jacobian ∂ln M/∂ln Λ at the estimate"),
+        "log_covariance": _var(("parameter", "parameter_"), cov_log, "1",
+                               f"covariance of ln Λ under {options.noise:.0%} relative 1σ measurement noise"),
+        "covariance": _var(("parameter", "parameter_"), cov_log * np.outer(estimate, estimate),
+                           "products of parameter_units", "covariance of Λ (linearised)"),
+        "interval_low": _var(("parameter",), low, _PARAM_UNITS, f"lower bound of the {Z95:.2f}σ (95 %) interval"),
+        "interval_high": _var(("parameter",), high, _PARAM_UNITS, f"upper bound of the {Z95:.2f}σ (95 %) interval"),
+        "singular_values": _var(("singular",), singular, "1", "singular values of the weighted relative Jacobian"),
+        "target": _var(("posture", "quantity"), target.values, "m3 m2 m m m", "measured values M̄"),
+        "weight": _var(("posture", "quantity"), target.weights, "1", "weight w_i of the measurement in the cost"),
+        "position": _var(("posture", "node", "xyz"),
+                         np.stack([result.solutions[p].position for p in postures]), "m",
+                         "predicted equilibrium shape at the estimate"),
+        "posture_angle": _var(("posture",), np.array([p.angle for p in target.postures]), "degree",
+                              "forward-bend angle θ"),
+    }
+    if truth is not None:
+        data["truth"] = _var(("parameter",), np.asarray(truth, float), _PARAM_UNITS, "generating parameters")
+        data["relative_error"] = _var(("parameter",), estimate / np.asarray(truth, float) - 1.0, "1",
+                                      "estimate / truth − 1")
+    params = mm.params(estimate)
+    shown = refold(mm.model.map.mesh_at(params.R, params.H), params.fold_angle)
+    data.update(mesh_variables(shown))
+    coords = mesh_coords()
+    coords.update({
+        "parameter": _var(("parameter",), np.array(IDENTIFIED), "1", "identified parameter"),
+        "parameter_": _var(("parameter_",), np.array(IDENTIFIED), "1", "identified parameter (second axis)"),
+        "parameter_units": _var(("parameter",), np.array([PARAMETER_INFO[p].units for p in IDENTIFIED]), "1",
+                                "unit of each parameter"),
+        "posture": _var(("posture",), np.array(postures), "1", "posture name"),
+        "quantity": _var(("quantity",), np.array(QUANTITIES), "1", "measured quantity"),
+        "iteration": _var(("iteration",), np.arange(len(result.cost)), "1", "accepted iteration (0 = initial)"),
+    })
+    ds = xr.Dataset(data, coords=coords)
+    ds.attrs = provenance("identify", params, config_hash, mesh_level=mesh_level, method=options.method,
+                          jacobian_method=options.jacobian, success=int(result.success), message=result.message,
+                          noise_model=f"independent relative Gaussian noise, σ = {options.noise}",
+                          measurement_set=target.measurement_set, forward_solves=result.forward_solves,
+                          failed_solves=result.failed_solves, jacobian_rank=rank, condition_number=cond,
+                          options={k: getattr(options, k) for k in options.__dataclass_fields__},
+                          title="breastcore parameter identification")
+    return ds

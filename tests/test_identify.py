@@ -1,0 +1,99 @@
+"""Identification: implicit Jacobian vs central differences, inverse-crime recovery,
+the paper's Gauss-Newton, rejected failed solves, and the output dataset."""
+
+import numpy as np
+import pytest
+
+from breastcore.cli import main
+from breastcore.datasets import open_dataset
+from breastcore.forward import ForwardModel, SolveError
+from breastcore.identify import (IdentificationOptions, from_unconstrained, identify, to_unconstrained,
+                                 unconstrained_chain)
+from breastcore.mesh import mesh_level
+from breastcore.observation import MeasurementModel
+from breastcore.parameters import Parameters
+from breastcore.postures import paper_postures
+
+TRUTH = np.array(Parameters().identified())
+
+
+@pytest.fixture(scope="module")
+def problem():
+    mm = MeasurementModel(ForwardModel(mesh_level("coarse")), Parameters(), paper_postures())
+    solutions = mm.solve(TRUTH)
+    return mm, solutions, mm.measure(solutions)
+
+
+def test_implicit_jacobian_matches_central_differences(problem):
+    mm, solutions, target = problem
+    implicit = mm.implicit_jacobian(TRUTH, solutions) * TRUTH / target[..., None]
+    central = mm.fd_jacobian(TRUTH, solutions, rel_step=1e-5, central=True) * TRUTH / target[..., None]
+    assert np.abs(implicit - central).max() <= 1e-4 * np.abs(central).max()
+    assert np.abs(central).max() > 0.1          # the Jacobian is not trivially small
+
+
+def test_unconstrained_map_round_trips_and_its_chain_rule_is_exact():
+    z = to_unconstrained(TRUTH)
+    assert np.allclose(from_unconstrained(z), TRUTH, rtol=1e-14)
+    h = 1e-6
+    fd = np.column_stack([(from_unconstrained(z + h * e) - from_unconstrained(z - h * e)) / (2 * h) for e in np.eye(6)])
+    assert np.allclose(unconstrained_chain(TRUTH), fd, rtol=1e-7, atol=1e-12)
+    R, H = from_unconstrained([0.0, 30.0, 0, 0, 0, 0])[:2]
+    assert 0 < H < R                              # the bound H < R holds by construction
+
+
+def test_lm_recovers_truth_from_30_percent_off(problem):
+    mm, _, target = problem
+    start = TRUTH * np.array([1.3, 0.75, 0.7, 1.3, 1.25, 0.7])
+    result = identify(mm, target, start)
+    assert result.success
+    assert np.abs(result.estimate / TRUTH - 1).max() <= 1e-4
+    assert result.cost[-1] < 1e-12 < result.cost[0]
+    assert len(result.parameters) == len(result.cost) == len(result.wall_time)
+
+
+def test_paper_gauss_newton_decreases_the_cost(problem):
+    mm, _, target = problem
+    start = TRUTH * 1.1
+    opts = IdentificationOptions(method="gauss-newton", jacobian="fd", fd_step=1e-4, max_iterations=8)
+    result = identify(mm, target, start, opts)
+    assert result.cost[-1] < 1e-3 * result.cost[0]
+
+
+def test_failed_forward_solve_is_rejected_not_fatal(problem, monkeypatch):
+    mm, _, target = problem
+    model = mm.model
+    real = model.solve
+    calls = {"n": 0}
+
+    def flaky(params, posture, start=None):
+        calls["n"] += 1
+        if calls["n"] in (4, 5):                   # the first trial step fails
+            raise SolveError("injected", iterations=1, gradient_norm=1.0, tolerance=0.1, min_det_F=0.5,
+                             load_factor=1.0, smoothing=1e-6, posture=posture.name)
+        return real(params, posture, start)
+
+    monkeypatch.setattr(model, "solve", flaky)
+    result = identify(mm, target, TRUTH * 1.2)
+    assert result.failed_solves >= 1
+    assert result.success and np.abs(result.estimate / TRUTH - 1).max() <= 1e-4
+
+
+def test_identify_command_writes_history_estimate_and_uncertainty(tmp_path):
+    sol, meas, out = tmp_path / "s.nc", tmp_path / "m.nc", tmp_path / "id.nc"
+    assert main(["solve", "--mesh", "coarse", "--out", str(sol)]) == 0
+    assert main(["measure", str(sol), "--out", str(meas)]) == 0
+    assert main(["identify", "--measurements", str(meas), "--mesh", "coarse",
+                 "--initial", "R=0.06,mu_breast=120", "--out", str(out)]) == 0
+    ds = open_dataset(out)
+    for name in ("parameters", "cost", "measurement_error", "wall_time", "estimate", "jacobian", "covariance",
+                 "interval_low", "interval_high", "singular_values", "position"):
+        assert name in ds and "units" in ds[name].attrs and "long_name" in ds[name].attrs
+    assert ds["cost"].dims == ("iteration",) and ds["measurement_error"].dims == ("iteration", "posture", "quantity")
+    assert np.all(ds["interval_low"] < ds["estimate"]) and np.all(ds["estimate"] < ds["interval_high"])
+    assert np.abs(ds["relative_error"]).max() < 1e-4
+    # not converging: non-zero exit, history kept
+    bad = tmp_path / "bad.nc"
+    assert main(["identify", "--measurements", str(meas), "--mesh", "coarse", "--initial", "R=0.07",
+                 "--method", "gauss-newton", "--jacobian", "fd", "--max-iterations", "1", "--out", str(bad)]) == 1
+    assert open_dataset(bad).sizes["iteration"] == 2
