@@ -50,6 +50,15 @@ class FreeDofAssembler:
         row_of = unique // self.n_free
         self.indptr = np.searchsorted(row_of, np.arange(self.n_free + 1)).astype(np.int32)
         self.nnz = unique.size
+        self._pattern = None
+
+    @property
+    def pattern(self):
+        """The :class:`~breastcore.solver.SymmetricPattern` of the assembled matrices (built once)."""
+        if self._pattern is None:
+            from .solver import SymmetricPattern
+            self._pattern = SymmetricPattern(self.indptr, self.indices, self.n_free)
+        return self._pattern
 
     def assemble(self, blocks):
         """CSR matrix from ``[(connectivity, (n, 3k, 3k) blocks)]`` in constructor order."""

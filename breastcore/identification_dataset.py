@@ -9,6 +9,7 @@ from .datasets import _var, mesh_coords, mesh_variables, provenance
 from .measure import QUANTITIES
 from .mesh import refold
 from .parameters import IDENTIFIED, PARAMETER_INFO
+from .solution import DIAGNOSTICS
 from .uncertainty import Z95, conditioning, intervals, log_covariance
 
 _PARAM_UNITS = " ".join(PARAMETER_INFO[p].units for p in IDENTIFIED)
@@ -50,6 +51,10 @@ def identification_dataset(result, mm, target, options, *, initial, truth=None, 
         "posture_angle": _var(("posture",), np.array([p.angle for p in target.postures]), "degree",
                               "forward-bend angle θ"),
     }
+    for name, (units, long_name) in DIAGNOSTICS.items():
+        attr = "iterations" if name == "newton_iterations" else name
+        data["solve_" + name] = _var(("posture",), np.array([getattr(result.solutions[p], attr) for p in postures]),
+                                     units, long_name + " (solve of the final shapes)")
     if truth is not None:
         data["truth"] = _var(("parameter",), np.asarray(truth, float), _PARAM_UNITS, "generating parameters")
         data["relative_error"] = _var(("parameter",), estimate / np.asarray(truth, float) - 1.0, "1",

@@ -60,9 +60,9 @@ class IdentificationOptions:
     jacobian: str = "implicit"
     fd_step: float = 1e-4
     cost_tol: float = 1e-14
-    xtol: float = 1e-10
-    ftol: float = 1e-12
-    gtol: float = 1e-12
+    xtol: float = 1e-8
+    ftol: float = 1e-8
+    gtol: float = 1e-10
     max_iterations: int = 50
     noise: float = 0.10
 
@@ -190,7 +190,7 @@ def _levenberg_marquardt(mm, target, sqrt_w, initial, solutions, options, result
     cache[z0.tobytes()] = (initial, solutions)
     out = least_squares(fun, z0, jac=jac, method="trf", tr_solver="exact", x_scale=1.0,
                         xtol=options.xtol, ftol=options.ftol, gtol=options.gtol,
-                        max_nfev=options.max_iterations * 4, callback=callback)
+                        max_nfev=options.max_iterations * 2, callback=callback)
     values, sols = cache[out.x.tobytes()]
     if not np.allclose(result.parameters[-1], values, rtol=0, atol=0):
         result.solutions = sols

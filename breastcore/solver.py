@@ -13,6 +13,8 @@ Robustness measures (issue #2, section 4):
 
 from __future__ import annotations
 
+import ctypes
+import itertools
 import logging
 import os
 import warnings
@@ -69,26 +71,181 @@ class NewtonResult:
     message: str
 
 
+#: Threads PARDISO may use (environment variable ``BREASTCORE_PARDISO_THREADS``, default 1).
+#: On this project's 2-core machines two solves (or a solve and another job) often run at
+#: once; a 2-thread PARDISO then waits for a busy core and a 25 ms factorisation takes
+#: 60-200 ms, a solve 40-160 ms instead of 2 ms (measured, see docs/benchmarks.md).
+PARDISO_THREADS_ENV = "BREASTCORE_PARDISO_THREADS"
+
+
+def _set_pardiso_threads(lib):
+    try:
+        threads = int(os.environ.get(PARDISO_THREADS_ENV, "1"))
+    except ValueError:
+        threads = 1
+    if threads > 0:
+        try:                                                         # MKL serves only PARDISO here (numpy
+            lib.MKL_Set_Num_Threads.argtypes = [ctypes.c_int]        # has its own BLAS)
+            lib.MKL_Set_Num_Threads(threads)
+        except AttributeError:                                       # not an MKL runtime: keep its default
+            pass
+
+
+class _Pardiso:
+    """One MKL PARDISO instance for a real symmetric indefinite matrix (``mtype = -2``).
+
+    Called through ``ctypes`` on the MKL that ``pypardiso`` ships, with PARDISO's
+    default ``iparm`` (as ``pypardiso`` uses it). The phases are split so that the
+    symbolic analysis (phase 11: fill-reducing ordering) is done once per sparsity
+    pattern and each new matrix only needs the numeric factorisation (phase 22).
+    """
+
+    _function = None
+
+    def __init__(self, n, ia, ja):
+        if _Pardiso._function is None:
+            lib = ctypes.CDLL(os.environ.get("PYPARDISO_MKL_RT") or _pardiso.ps.libmkl._name)
+            _set_pardiso_threads(lib)
+            fn = lib.pardiso
+            p_int = ctypes.POINTER(ctypes.c_int32)
+            fn.argtypes = [ctypes.POINTER(ctypes.c_int64), p_int, p_int, p_int, p_int, p_int, ctypes.c_void_p,
+                           p_int, p_int, p_int, p_int, p_int, p_int, ctypes.c_void_p, ctypes.c_void_p, p_int]
+            fn.restype = None
+            _Pardiso._function = fn
+        self.n = int(n)
+        self.ia = np.ascontiguousarray(ia, dtype=np.int32)          # 1-based CSR of the upper triangle
+        self.ja = np.ascontiguousarray(ja, dtype=np.int32)
+        self.pt = np.zeros(64, dtype=np.int64)
+        self.iparm = np.zeros(64, dtype=np.int32)
+        self.perm = np.zeros(self.n, dtype=np.int32)
+        self.analysed = False
+        self.owner = None                                            # token of the factor held now
+
+    def _call(self, phase, data, b=None, nrhs=1):
+        c_int = ctypes.c_int32
+        p_int = ctypes.POINTER(c_int)
+        error = c_int(0)
+        x = np.zeros_like(b) if b is not None else None
+        self._function(self.pt.ctypes.data_as(ctypes.POINTER(ctypes.c_int64)), ctypes.byref(c_int(1)),
+                       ctypes.byref(c_int(1)), ctypes.byref(c_int(-2)), ctypes.byref(c_int(phase)),
+                       ctypes.byref(c_int(self.n)), data.ctypes.data if data is not None else None,
+                       self.ia.ctypes.data_as(p_int), self.ja.ctypes.data_as(p_int),
+                       self.perm.ctypes.data_as(p_int), ctypes.byref(c_int(nrhs)),
+                       self.iparm.ctypes.data_as(p_int), ctypes.byref(c_int(0)),
+                       b.ctypes.data if b is not None else None, x.ctypes.data if x is not None else None,
+                       ctypes.byref(error))
+        if error.value != 0:
+            raise RuntimeError(f"PARDISO phase {phase} failed with error {error.value}")
+        return x
+
+    def factorize(self, data, owner):
+        """Numeric factorisation of the matrix with upper-triangle values ``data``."""
+        self.owner = None
+        if not self.analysed:
+            self._call(11, data)
+            self.analysed = True
+        self._call(22, data)
+        self.owner = owner
+        return int(self.iparm[22])                                   # number of negative pivots
+
+    def solve(self, data, b):
+        b = np.asfortranarray(b, dtype=float)
+        nrhs = 1 if b.ndim == 1 else b.shape[1]
+        return np.ascontiguousarray(self._call(33, data, b, nrhs))
+
+    def free(self):
+        if self.analysed and self._function is not None:
+            try:
+                self._call(-1, None)
+            except Exception:                                        # noqa: BLE001 - interpreter shutdown
+                pass
+            self.analysed = False
+
+    def __del__(self):
+        self.free()
+
+
+class SymmetricPattern:
+    """The fixed sparsity pattern of a symmetric CSR matrix, with one reusable PARDISO handle.
+
+    A Newton solve factorises a matrix of the same pattern at every iteration; this
+    object keeps the PARDISO symbolic analysis (ordering) of that pattern, so that
+    :class:`Factorization` only does the numeric phase. The handle holds one numeric
+    factor at a time: a :class:`Factorization` whose factor was replaced by a later
+    one refactorises itself on its next ``solve`` (results never mix).
+
+    Parameters
+    ----------
+    indptr, indices : int arrays
+        CSR structure (sorted column indices) of the full symmetric matrix.
+    n : int
+        Matrix size.
+    """
+
+    def __init__(self, indptr, indices, n):
+        self.n = int(n)
+        self.indptr = np.asarray(indptr)
+        self.indices = np.asarray(indices)
+        rows = np.repeat(np.arange(self.n), np.diff(self.indptr))
+        upper = self.indices >= rows
+        self.upper = np.flatnonzero(upper)                           # positions of the upper triangle in data
+        counts = np.bincount(rows[upper], minlength=self.n)
+        self.ia = np.concatenate([[0], np.cumsum(counts)]).astype(np.int32) + 1
+        self.ja = self.indices[upper].astype(np.int32) + 1
+        self._handle = None
+
+    def matches(self, K):
+        return (K.shape == (self.n, self.n) and K.format == "csr" and K.has_sorted_indices
+                and (K.indptr is self.indptr or np.array_equal(K.indptr, self.indptr))
+                and (K.indices is self.indices or np.array_equal(K.indices, self.indices)))
+
+    def handle(self):
+        if self._handle is None:
+            self._handle = _Pardiso(self.n, self.ia, self.ja)
+        return self._handle
+
+    def release(self):
+        """Free PARDISO's memory for this pattern (it is re-analysed on next use)."""
+        if self._handle is not None:
+            self._handle.free()
+            self._handle = None
+
+
 class Factorization:
     """Sparse factorisation of a symmetric free-dof Hessian, reusable for many solves.
 
-    Uses MKL PARDISO (symmetric indefinite LDLᵀ, via ``pypardiso``) where it is
-    installed, about 5× faster than SuperLU on these meshes; SuperLU in symmetric
-    mode otherwise. ``negative_pivots`` is the number of negative eigenvalues
-    (the inertia) when PARDISO reports it, else ``None``.
+    Uses MKL PARDISO (symmetric indefinite LDLᵀ) where ``pypardiso`` is installed,
+    about 5× faster than SuperLU on these meshes; SuperLU in symmetric mode
+    otherwise. ``negative_pivots`` is the number of negative eigenvalues (the
+    inertia) when PARDISO reports it, else ``None``.
+
+    Parameters
+    ----------
+    K : (n, n) sparse matrix
+        Symmetric; only its upper triangle is read by PARDISO.
+    pattern : SymmetricPattern, optional
+        The pattern ``K`` is known to have (e.g. a Newton solve's Hessians): its
+        symbolic analysis is reused and only the numeric factorisation is done.
+        Without it, or if ``K`` does not match it, the factorisation has a
+        private PARDISO handle.
     """
 
-    def __init__(self, K: sp.csr_matrix):
+    _tokens = itertools.count()
+
+    def __init__(self, K: sp.csr_matrix, pattern: SymmetricPattern | None = None):
         self.shape = K.shape
         self.negative_pivots = None
+        self._token = next(Factorization._tokens)
         if _pardiso is not None:
-            upper = sp.triu(K, format="csr")
-            upper.sort_indices()
-            self._solver = _pardiso.PyPardisoSolver(mtype=-2)
-            self._solver.set_statistical_info_off()
-            self._solver.factorize(upper)
-            self._upper = upper
-            self.negative_pivots = int(self._solver.iparm[22])
+            K = K.tocsr()
+            if pattern is None or not pattern.matches(K):
+                if not K.has_canonical_format:
+                    K = K.copy()
+                    K.sum_duplicates()
+                pattern = SymmetricPattern(K.indptr, K.indices, K.shape[0])
+            self._pattern = pattern
+            self._data = np.ascontiguousarray(K.data[pattern.upper], dtype=float)
+            self.negative_pivots = pattern.handle().factorize(self._data, self._token)
         else:
             with warnings.catch_warnings():
                 warnings.simplefilter("error", spla.MatrixRankWarning)
@@ -97,18 +254,26 @@ class Factorization:
     def solve(self, b):
         b = np.asarray(b, dtype=float)
         if _pardiso is not None:
-            return self._solver.solve(self._upper, b)
+            handle = self._pattern.handle()
+            if handle.owner != self._token:                          # another factor took the handle
+                handle.factorize(self._data, self._token)
+            return handle.solve(self._data, b)
         return self._lu.solve(b)
 
-    def __del__(self):
-        solver = getattr(self, "_solver", None)
-        if solver is not None:
-            solver.free_memory(everything=True)
+
+def _dot(a, b):
+    """``a · b`` without BLAS (a threaded BLAS dot stalls when the other core is busy)."""
+    return float(np.einsum("i,i->", a, b))
 
 
-def _factor_solve(K, g):
+def _norm(a):
+    """Euclidean norm of a vector, without BLAS (see :func:`_dot`)."""
+    return float(np.sqrt(np.einsum("i,i->", a, a)))
+
+
+def _factor_solve(K, g, pattern=None):
     try:
-        factor = Factorization(K)
+        factor = Factorization(K, pattern)
         d = -factor.solve(g)
     except (RuntimeError, spla.MatrixRankWarning, ValueError):
         return None, None
@@ -117,9 +282,15 @@ def _factor_solve(K, g):
     return factor, d
 
 
-def _line_search(problem, z, d, energy, g, g_norm, min_step=2.0**-30):
-    """Backtracking search on ``problem.value``; returns (step, z_new, energy_new) or None."""
-    slope = float(g @ d)
+def _line_search(problem, z, d, energy, g, g_norm, min_step=2.0**-30, expand=False):
+    """Backtracking search on ``problem.value``; returns (step, z_new, energy_new) or None.
+
+    With ``expand``, an accepted full step is doubled (up to 2¹⁰) while the energy keeps
+    decreasing. Used for the modified (projected or shifted) Hessians only: near a
+    saddle their step along the escape direction is far too short, and without
+    expansion leaving the saddle took up to 100 iterations of growing gradient.
+    """
+    slope = _dot(g, d)
     scale = abs(energy) + problem.energy_scale
     step = 1.0
     while step >= min_step:
@@ -127,10 +298,17 @@ def _line_search(problem, z, d, energy, g, g_norm, min_step=2.0**-30):
         e_new = problem.value(z_new)
         if np.isfinite(e_new):
             if e_new <= energy + 1e-4 * step * slope:
+                if expand and step == 1.0:
+                    while step < 2.0**10:
+                        z_try = z + 2.0 * step * d
+                        e_try = problem.value(z_try)
+                        if not (np.isfinite(e_try) and e_try < e_new):
+                            break
+                        step, z_new, e_new = 2.0 * step, z_try, e_try
                 return step, z_new, e_new
             # Below round-off the energy cannot rank the two points: use the gradient.
             if abs(e_new - energy) <= 1e-12 * scale and abs(step * slope) <= 1e-11 * scale:
-                if np.linalg.norm(problem.gradient(z_new)) < g_norm:
+                if _norm(problem.gradient(z_new)) < g_norm:
                     return step, z_new, e_new
         step *= 0.5
     return None
@@ -144,7 +322,8 @@ def newton(problem, z0, tolerance, max_iterations=50):
     problem : object
         Provides ``value(z)`` (``inf`` where inadmissible), ``gradient(z)``,
         ``hessian(z, project)`` (CSR, free dofs) and ``energy_scale`` (J, a
-        typical energy magnitude used for round-off tests).
+        typical energy magnitude used for round-off tests); optionally
+        ``pattern``, the :class:`SymmetricPattern` of its Hessians.
     z0 : (n,) array
         Admissible starting free dofs.
     tolerance : float
@@ -164,9 +343,10 @@ def newton(problem, z0, tolerance, max_iterations=50):
     history = []
     projected = 0
     message = "iteration limit"
+    pattern = getattr(problem, "pattern", None)                      # reuse the symbolic factorisation
     for it in range(max_iterations + 1):
         g = problem.gradient(z)
-        g_norm = float(np.linalg.norm(g))
+        g_norm = _norm(g)
         history.append(g_norm)
         if not np.isfinite(g_norm):
             message = "non-finite gradient"
@@ -180,10 +360,10 @@ def newton(problem, z0, tolerance, max_iterations=50):
             K = problem.hessian(z, project=(mode != "exact"))
             if mode == "shift":
                 K = K + sp.identity(K.shape[0], format="csr") * (1e-6 * abs(K.diagonal()).max())
-            factor, d = _factor_solve(K, g)
-            if d is None or g @ d >= -1e-12 * g_norm * np.linalg.norm(d):
+            factor, d = _factor_solve(K, g, pattern)
+            if d is None or _dot(g, d) >= -1e-12 * g_norm * _norm(d):
                 continue
-            accepted = _line_search(problem, z, d, energy, g, g_norm)
+            accepted = _line_search(problem, z, d, energy, g, g_norm, expand=(mode != "exact"))
             if accepted is not None:
                 projected += mode != "exact"
                 break

@@ -1,0 +1,78 @@
+"""``breastcore show FILE.nc`` and ``breastcore list FOLDER``: browse result datasets."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+from ..cli import existing_file
+
+_KEY_NUMBERS = {
+    "mesh": ["reference_position", "tetrahedra"],
+    "solve": ["newton_iterations", "gradient_norm", "tolerance", "converged", "min_det_F", "wall_time"],
+    "measure": ["measurement"],
+    "identify": ["estimate", "interval_low", "interval_high", "relative_error", "cost", "singular_values"],
+    "sensitivity": ["linearised", "finite"],
+    "scene": ["mean_abs_error", "wall_time", "nipple_displacement", "estimate"],
+}
+
+
+def register(sub):
+    p = sub.add_parser("show", help="print a readable summary of a result dataset")
+    p.add_argument("dataset", type=existing_file("FILE"), metavar="FILE.nc")
+    p.set_defaults(run=run_show)
+    q = sub.add_parser("list", help="list the result datasets of a folder with their scene and stage")
+    q.add_argument("folder", nargs="?", default="results", metavar="FOLDER")
+    q.set_defaults(run=run_list)
+
+
+def describe(ds) -> str:
+    """Multi-line summary: what the dataset is, its parameters, key numbers and provenance."""
+    import numpy as np
+
+    a = ds.attrs
+    lines = [f"{a.get('title', 'dataset')}  [stage: {a.get('stage', '?')}]"]
+    dims = ", ".join(f"{k}={v}" for k, v in ds.sizes.items())
+    lines.append(f"  dimensions: {dims}")
+    params = json.loads(a.get("parameters", "{}") or "{}")
+    if params:
+        lines.append("  parameters: " + ", ".join(f"{k}={v:.6g}" if isinstance(v, (int, float)) else f"{k}={v}"
+                                                  for k, v in params.items()))
+    for name in _KEY_NUMBERS.get(a.get("stage"), []):
+        if name in ds:
+            var = ds[name]
+            values = np.array2string(np.asarray(var.values), precision=4, threshold=40, max_line_width=100)
+            values = values.replace("\n", "\n" + " " * 6)
+            lines.append(f"  {name} [{var.attrs.get('units', '')}] ({var.attrs.get('long_name', '')}):\n      {values}")
+    for key in ("success", "message", "mesh_level", "solver", "method", "measurement_set", "scene", "source"):
+        if key in a:
+            lines.append(f"  {key}: {a[key]}")
+    lines.append(f"  provenance: breastcore {a.get('breastcore_version')} (source {a.get('source_hash')}), "
+                 f"config {a.get('config_hash')}, created {a.get('created')}")
+    return "\n".join(lines)
+
+
+def run_show(args):
+    from ..datasets import open_dataset
+    print(describe(open_dataset(args.dataset)))
+
+
+def run_list(args):
+    import xarray as xr
+
+    folder = Path(args.folder)
+    rows = []
+    for path in sorted(folder.rglob("*.nc")):
+        try:
+            with xr.open_dataset(path) as ds:
+                a = ds.attrs
+                rows.append((str(path), a.get("stage", "?"), a.get("scene", a.get("mesh_level", "")),
+                             a.get("created", "")))
+        except (OSError, ValueError):
+            rows.append((str(path), "unreadable", "", ""))
+    width = max((len(r[0]) for r in rows), default=4)
+    print(f"{'file':<{width}}  {'stage':<12} {'scene / mesh':<20} created")
+    for r in rows:
+        print(f"{r[0]:<{width}}  {r[1]:<12} {r[2]:<20} {r[3]}")
+    if not rows:
+        print(f"(no datasets under {folder})")

@@ -1,0 +1,127 @@
+"""Validation of the workflow's ``config.yaml``: schema, defaults and physical checks.
+
+Called by the ``Snakefile`` before any job runs. Errors are one line that names the
+key, e.g. ``config key scenes.alice.postures.standing.volume: -5 is not > 0``.
+"""
+
+from __future__ import annotations
+
+import copy
+import math
+from pathlib import Path
+
+import jsonschema
+import yaml
+
+from .mesh import LEVEL_MESH_SIZE
+from .postures import PostureError, parse_posture
+
+SCENE_KINDS = ("synthetic", "patient", "forward")
+
+
+class ConfigError(ValueError):
+    """An invalid configuration; the message names the key and the problem."""
+
+
+def load_schema(path) -> dict:
+    return yaml.safe_load(Path(path).read_text())
+
+
+def _resolve(schema, root):
+    while "$ref" in schema:
+        name = schema["$ref"].split("/")[-1]
+        schema = {**root["definitions"][name], **{k: v for k, v in schema.items() if k != "$ref"}}
+    return schema
+
+
+def fill_defaults(instance, schema, root):
+    """Insert each missing key that has a ``default``, recursively."""
+    schema = _resolve(schema, root)
+    if not isinstance(instance, dict):
+        return instance
+    for key, sub in schema.get("properties", {}).items():
+        sub = _resolve(sub, root)
+        if key not in instance and "default" in sub:
+            instance[key] = copy.deepcopy(sub["default"])
+        if key in instance:
+            fill_defaults(instance[key], sub, root)
+    return instance
+
+
+def _check(instance, schema, root, where):
+    validator = jsonschema.Draft7Validator({**schema, "definitions": root["definitions"]})
+    error = next(iter(sorted(validator.iter_errors(instance), key=lambda e: list(e.absolute_path))), None)
+    if error is not None:
+        path = ".".join([where, *(str(p) for p in error.absolute_path)]).strip(".")
+        message = error.message
+        if error.validator == "additionalProperties":
+            message = "unknown key: " + message.split("(")[-1].rstrip(")").replace(" was unexpected", "")
+        raise ConfigError(f"config key {path or '<top>'}: {message}")
+
+
+def _finite(value, where):
+    if isinstance(value, float) and not math.isfinite(value):
+        raise ConfigError(f"config key {where}: {value} is not a finite number")
+    if isinstance(value, dict):
+        for k, v in value.items():
+            _finite(v, f"{where}.{k}" if where else str(k))
+    elif isinstance(value, list):
+        for i, v in enumerate(value):
+            _finite(v, f"{where}[{i}]")
+
+
+def _levels(levels, where):
+    for level in levels:
+        if level not in LEVEL_MESH_SIZE:
+            raise ConfigError(f"config key {where}: unknown mesh level {level!r}; known: {', '.join(LEVEL_MESH_SIZE)}")
+
+
+def _postures(texts, where):
+    try:
+        names = [parse_posture(t).name for t in texts]
+    except PostureError as err:
+        raise ConfigError(f"config key {where}: {err}") from None
+    if len(set(names)) != len(names):
+        raise ConfigError(f"config key {where}: repeated posture in {names}")
+
+
+def _cap(values, where):
+    if values.get("H", 0) >= values.get("R", 1):
+        raise ConfigError(f"config key {where}.H: H = {values['H']} m must be < R = {values['R']} m")
+
+
+def validate_config(config, schema_path) -> dict:
+    """Validated copy of ``config`` with every default filled in. Raises ConfigError."""
+    root = load_schema(schema_path)
+    config = copy.deepcopy(dict(config or {}))
+    _finite(config, "")
+    _check(config, root, root, "")
+    fill_defaults(config, root, root)
+    for name, scene in config["scenes"].items():
+        where = f"scenes.{name}"
+        kind = scene.get("kind")
+        if kind not in SCENE_KINDS:
+            raise ConfigError(f"config key {where}.kind: must be one of {', '.join(SCENE_KINDS)}, got {kind!r}")
+        if kind == "patient" and not scene.get("postures"):
+            raise ConfigError(f"config key {where}.postures: a patient scene needs measurements")
+        schema = root["definitions"][kind]
+        _check(scene, schema, root, where)
+        fill_defaults(scene, schema, root)
+        if kind == "synthetic":
+            _levels([scene["truth_mesh"], *scene["meshes"]], f"{where}.meshes")
+            _postures(scene["postures"], f"{where}.postures")
+            _cap(scene["truth"], f"{where}.truth")
+        elif kind == "patient":
+            _levels([scene["mesh"]], f"{where}.mesh")
+            for posture, values in scene["postures"].items():
+                _postures([posture if "angle" not in values else f"{posture}={values['angle']}"],
+                          f"{where}.postures.{posture}")
+                missing = [q for q in ("volume", "area", "height", "frontal_depth", "back_depth") if q not in values]
+                if missing:
+                    raise ConfigError(f"config key {where}.postures.{posture}: missing {', '.join(missing)}")
+            _cap(scene["initial"], f"{where}.initial")
+        else:
+            _levels([scene["mesh"]], f"{where}.mesh")
+            _postures(scene["postures"], f"{where}.postures")
+            _cap(scene["parameters"], f"{where}.parameters")
+    return config

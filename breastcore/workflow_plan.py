@@ -1,0 +1,166 @@
+"""The job plan of the workflow: which datasets each scene needs, keyed by their inputs.
+
+Every job is defined by a small JSON-able spec; its output path carries a short hash
+of that spec, so two scenes that need the same mesh, solve or identification share
+one file, and a changed spec gives a new path (and only its own jobs rerun).
+
+Paths (under ``results/``)::
+
+    mesh/{level}.nc                         fixed-topology level mesh at the paper's (R, H)
+    mesh/{level}-direct-{key}.nc            gmsh directly at a true (R, H) (synthetic truth)
+    solve/{key}.nc                          solution dataset
+    measure/{key}.nc                        measurement dataset (synthetic or patient)
+    identify/{key}.nc                       identification dataset
+    sensitivity/{key}.nc                    sensitivity dataset
+    scenes/{scene}/...                      per-scene tables and figures (report)
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+
+import numpy as np
+
+from .parameters import IDENTIFIED
+from .postures import parse_posture
+
+
+def spec_key(spec) -> str:
+    """Short stable hash of a JSON-able spec."""
+    return hashlib.sha1(json.dumps(spec, sort_keys=True).encode()).hexdigest()[:10]
+
+
+def _postures(texts):
+    return [{"name": p.name, "angle": p.angle} for p in (parse_posture(t) for t in texts)]
+
+
+def initial_guesses(truth, offset, starts, seed):
+    """``starts`` guesses, each parameter drawn uniformly in truth × [1 − offset, 1 + offset].
+
+    ``H`` is redrawn until ``H < R``. Deterministic for a given seed and offset.
+    """
+    rng = np.random.default_rng([seed, int(round(offset * 1e6))])
+    values = np.array([truth[k] for k in IDENTIFIED])
+    out = []
+    while len(out) < starts:
+        guess = values * (1 + rng.uniform(-offset, offset, values.size))
+        if guess[1] < guess[0]:
+            out.append(dict(zip(IDENTIFIED, (float(v) for v in guess))))
+    return out
+
+
+class Plan:
+    """All jobs of a validated config. ``targets(scene)`` lists what a scene needs."""
+
+    def __init__(self, config):
+        self.results = config["results"].rstrip("/")
+        self.constants = config["constants"]
+        self.solver = config["solver"]
+        self.report = config["report"]["enabled"]
+        self.jobs = {"mesh": {}, "solve": {}, "measure": {}, "identify": {}, "sensitivity": {}, "scene": {}}
+        self.scenes = {}
+        for name, scene in config["scenes"].items():
+            self.scenes[name] = getattr(self, f"_{scene['kind']}")(name, scene)
+
+    # -- job registration -------------------------------------------------------------
+    def _add(self, stage, spec, path=None):
+        key = spec_key(spec)
+        path = path or f"{self.results}/{stage}/{key}.nc"
+        self.jobs[stage][path] = spec
+        return path
+
+    def mesh(self, level, R=None, H=None):
+        if R is None:
+            return self._add("mesh", {"level": level}, f"{self.results}/mesh/{level}.nc")
+        spec = {"level": level, "R": R, "H": H, "fold_angle": self.constants["fold_angle"]}
+        return self._add("mesh", spec, f"{self.results}/mesh/{level}-direct-{spec_key(spec)}.nc")
+
+    def solve(self, mesh_path, parameters, postures):
+        spec = {"mesh": mesh_path, "parameters": {**self.constants, **parameters}, "postures": postures,
+                "solver": self.solver}
+        return self._add("solve", spec)
+
+    def identify(self, measure_path, level, initial, identification):
+        spec = {"measurements": measure_path, "mesh": self.mesh(level), "initial": initial,
+                "constants": self.constants, "solver": self.solver, "identification": identification}
+        return self._add("identify", spec)
+
+    def sensitivity(self, identify_path, mode):
+        return self._add("sensitivity", {"identification": identify_path, "finite": mode == "both", "delta": 0.1})
+
+    # -- scenes -----------------------------------------------------------------------
+    def _synthetic(self, name, scene):
+        postures = _postures(scene["postures"])
+        truth_mesh = self.mesh(scene["truth_mesh"], scene["truth"]["R"], scene["truth"]["H"])
+        truth = self.solve(truth_mesh, scene["truth"], postures)
+        measured = self._add("measure", {"solution": truth, "measurement_set": scene["measurement_set"],
+                                         "noise": scene["noise"], "seed": scene["seed"]})
+        runs = []
+        for level in scene["meshes"]:
+            for offset in scene["offsets"]:
+                for i, guess in enumerate(initial_guesses(scene["truth"], offset, scene["starts"], scene["seed"])):
+                    path = self.identify(measured, level, guess, scene["identification"])
+                    runs.append({"mesh": level, "offset": offset, "start": i, "identification": path})
+        sens = [self.sensitivity(r["identification"], scene["sensitivity"]) for r in runs[:1]
+                if scene["sensitivity"] != "none"]
+        return self._scene(name, "synthetic", {"runs": runs, "truth": truth, "sensitivity": sens})
+
+    def _patient(self, name, scene):
+        postures = {k: dict(v) for k, v in scene["postures"].items()}
+        spec = {"patient": {"postures": postures, "units": scene["units"],
+                            "measurement_set": scene["measurement_set"]}}
+        measured = self._add("measure", spec)
+        ident = self.identify(measured, scene["mesh"], scene["initial"], scene["identification"])
+        sens = [self.sensitivity(ident, scene["sensitivity"])] if scene["sensitivity"] != "none" else []
+        names = list(postures)
+        return self._scene(name, "patient", {"identification": ident, "sensitivity": sens, "postures": names})
+
+    def _forward(self, name, scene):
+        postures = _postures(scene["postures"])
+        solution = self.solve(self.mesh(scene["mesh"]), scene["parameters"], postures)
+        return self._scene(name, "forward", {"solution": solution, "postures": [p["name"] for p in postures]})
+
+    def _scene(self, name, kind, spec):
+        spec = {"kind": kind, **spec}
+        folder = f"{self.results}/scenes/{name}"
+        summary = f"{folder}/summary.nc"
+        self.jobs["scene"][summary] = spec
+        return {"summary": summary, "figures": self.figures(name, spec) if self.report else [], **spec}
+
+    def figures(self, name, spec):
+        """Report files of a scene (PNG pictures and CSV tables)."""
+        folder = f"{self.results}/scenes/{name}"
+        if spec["kind"] == "synthetic":
+            out = [f"{folder}/convergence.png", f"{folder}/parameter_errors.csv"]
+        else:
+            out = [f"{folder}/shape_{p}.{ext}" for p in spec["postures"] for ext in ("png", "vtu")]
+            out.append(f"{folder}/diagnostics.csv")
+            if spec["kind"] == "patient":
+                out += [f"{folder}/convergence.png", f"{folder}/parameters.csv"]
+        if spec.get("sensitivity"):
+            out.append(f"{folder}/sensitivity.png")
+        return out
+
+    def scene(self, name):
+        return self.jobs["scene"][f"{self.results}/scenes/{name}/summary.nc"]
+
+    def scene_inputs(self, summary_path):
+        """Datasets a scene summary reads."""
+        spec = self.jobs["scene"][summary_path]
+        if spec["kind"] == "synthetic":
+            return [r["identification"] for r in spec["runs"]] + spec["sensitivity"] + [spec["truth"]]
+        if spec["kind"] == "patient":
+            return [spec["identification"], *spec["sensitivity"]]
+        return [spec["solution"]]
+
+    def shape_source(self, name):
+        """The dataset whose shapes a patient or forward scene shows."""
+        spec = self.scene(name)
+        return spec["identification"] if spec["kind"] == "patient" else spec["solution"]
+
+    def all_targets(self):
+        out = []
+        for scene in self.scenes.values():
+            out += [scene["summary"], *scene["figures"]]
+        return out

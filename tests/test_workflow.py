@@ -1,0 +1,148 @@
+"""The Snakemake workflow end to end on a tiny config, then dry runs for the caching rules."""
+
+import copy
+import re
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+import xarray as xr
+import yaml
+
+ROOT = Path(__file__).resolve().parents[1]
+SNAKEMAKE = str(Path(sys.executable).parent / "snakemake")
+
+TINY = {
+    "report": {"enabled": True},
+    "scenes": {
+        "syn": {"kind": "synthetic", "truth_mesh": "medium", "meshes": ["coarse"], "offsets": [0.1],
+                "sensitivity": "linearised", "identification": {"max_iterations": 15}},
+        "alice": {"kind": "patient", "mesh": "coarse", "identification": {"max_iterations": 15},
+                  "postures": {"standing": {"volume": 660, "area": 344, "height": 110, "frontal_depth": 51,
+                                            "back_depth": 45},
+                               "bent45": {"volume": 1230, "area": 296, "height": 89, "frontal_depth": 68,
+                                          "back_depth": 67},
+                               "fours": {"volume": 1014, "area": 238, "height": 105, "frontal_depth": 68,
+                                         "back_depth": 68}}},
+        "fwd": {"kind": "forward", "mesh": "coarse", "postures": ["standing"]},
+    },
+}
+
+
+def snakemake(workdir, *args):
+    return subprocess.run([SNAKEMAKE, "-s", str(ROOT / "Snakefile"), "-d", str(workdir), "--cores", "2", *args],
+                          capture_output=True, text=True)
+
+
+def planned_jobs(workdir, config):
+    """(rule, output) of every job a dry run would execute for ``config``."""
+    (workdir / "config.yaml").write_text(yaml.safe_dump(config))
+    out = snakemake(workdir, "-n")
+    assert out.returncode == 0, out.stderr + out.stdout
+    jobs, rule = [], None
+    for line in out.stdout.splitlines():
+        m = re.match(r"^(?:local)?rule (\w+):", line)
+        if m:
+            rule = m.group(1)
+        elif line.startswith("    output:") and rule:
+            jobs.append((rule, line.split(":", 1)[1].strip()))
+            rule = None
+        elif line.startswith("    jobid:") and rule:        # a job without outputs (rule all)
+            jobs.append((rule, ""))
+            rule = None
+    return jobs
+
+
+@pytest.fixture(scope="module")
+def workdir(tmp_path_factory):
+    path = tmp_path_factory.mktemp("workflow")
+    (path / "config.yaml").write_text(yaml.safe_dump(TINY))
+    out = snakemake(path)
+    assert out.returncode == 0, out.stderr[-3000:]
+    return path
+
+
+def test_every_dataset_has_units_long_names_and_provenance(workdir):
+    files = sorted((workdir / "results").rglob("*.nc"))
+    stages = set()
+    for path in files:
+        ds = xr.open_dataset(path)
+        for name, var in ds.variables.items():
+            assert "units" in var.attrs and "long_name" in var.attrs, (path, name)
+        for key in ("stage", "breastcore_version", "source_hash", "config_hash", "parameters"):
+            assert key in ds.attrs, (path, key)
+        stages.add(ds.attrs["stage"])
+        ds.close()
+    assert stages == {"mesh", "solve", "measure", "identify", "sensitivity", "scene"}
+
+
+def test_solution_dataset_follows_its_contract(workdir):
+    path = next(p for p in (workdir / "results/solve").glob("*.nc") if xr.open_dataset(p).sizes["posture"] == 1)
+    ds = xr.open_dataset(path)
+    for name, dims in {"reference_position": ("node", "xyz"), "position": ("posture", "node", "xyz"),
+                       "tetrahedra": ("tet", "tet_corner"), "skin_triangles": ("skin_face", "tri_corner"),
+                       "back_triangles": ("back_face", "tri_corner"), "fold": ("node",),
+                       "gravity": ("posture", "xyz"), "newton_iterations": ("posture",),
+                       "gradient_norm": ("posture",), "converged": ("posture",)}.items():
+        assert ds[name].dims == dims
+    assert ds["position"].attrs["units"] == "m" and ds["gravity"].attrs["units"] == "m s-2"
+    for name in ("R", "H", "lambda_breast", "mu_breast", "lambda_skin", "mu_skin", "skin_thickness", "density",
+                 "chassaignac", "smoothing"):
+        assert ds[name].ndim == 0 and ds[name].attrs["units"]
+    assert list(ds["posture"].values) == ["standing"]
+
+
+def test_scene_outputs_exist(workdir):
+    scenes = workdir / "results/scenes"
+    for name in ("shape_standing.png", "shape_standing.vtu", "parameters.csv", "convergence.png",
+                 "diagnostics.csv", "summary.nc"):
+        assert (scenes / "alice" / name).stat().st_size > 0
+    assert (scenes / "syn/sensitivity.png").exists() and (scenes / "syn/parameter_errors.csv").exists()
+    assert not (scenes / "fwd/shape_fours.png").exists()            # not asked for: not computed
+    assert not (scenes / "alice/sensitivity.png").exists()
+
+
+def test_second_run_does_nothing(workdir):
+    jobs = planned_jobs(workdir, TINY)
+    assert jobs == []
+
+
+def test_changing_one_patient_measurement_reruns_only_that_patient(workdir):
+    config = copy.deepcopy(TINY)
+    config["scenes"]["alice"]["postures"]["standing"]["volume"] = 650
+    jobs = planned_jobs(workdir, config)
+    rules = {r for r, _ in jobs}
+    assert {"measure", "identify", "scene_summary", "parameter_table"} <= rules
+    assert not rules & {"mesh", "solve", "sensitivity", "error_table"}
+    for rule, output in jobs:
+        assert rule in ("all", "measure", "identify") or "/scenes/alice/" in output, (rule, output)
+    assert sum(r == "identify" for r, _ in jobs) == 1
+
+
+def test_changing_one_scene_mesh_reruns_only_that_scene(workdir):
+    config = copy.deepcopy(TINY)
+    config["scenes"]["syn"]["meshes"] = ["medium"]
+    jobs = planned_jobs(workdir, config)
+    for rule, output in jobs:
+        assert "/scenes/alice/" not in output and "/scenes/fwd/" not in output, (rule, output)
+        assert rule in ("all", "mesh", "identify", "sensitivity") or "/scenes/syn/" in output, (rule, output)
+    assert ("mesh", f"{workdir.name}" and "results/mesh/medium.nc") in [(r, o) for r, o in jobs]
+    assert not any(r in ("solve", "measure") for r, _ in jobs)           # the truth is reused
+
+
+def test_adding_a_patient_adds_only_its_jobs(workdir):
+    config = copy.deepcopy(TINY)
+    config["scenes"]["bob"] = copy.deepcopy(config["scenes"]["alice"])
+    config["scenes"]["bob"]["postures"]["fours"]["height"] = 100
+    jobs = planned_jobs(workdir, config)
+    for rule, output in jobs:
+        assert rule in ("all", "measure", "identify") or "/scenes/bob/" in output, (rule, output)
+    assert sum(r == "identify" for r, _ in jobs) == 1
+
+
+def test_lint_is_clean():
+    out = subprocess.run([SNAKEMAKE, "--lint", "-s", str(ROOT / "Snakefile"), "-d", str(ROOT)],
+                         capture_output=True, text=True)
+    assert out.returncode == 0, out.stdout + out.stderr
+    assert "Lints for" not in out.stdout, out.stdout

@@ -1,0 +1,103 @@
+"""config.yaml validation: every bad input stops with a message naming the key."""
+
+import copy
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+import yaml
+
+from breastcore.workflow_config import ConfigError, validate_config
+
+ROOT = Path(__file__).resolve().parents[1]
+SCHEMA = ROOT / "workflow/schemas/config.schema.yaml"
+DEFAULT = yaml.safe_load((ROOT / "config.yaml").read_text())
+
+
+def test_default_config_is_valid_and_defaults_are_filled():
+    config = validate_config(DEFAULT, SCHEMA)
+    assert config["scenes"]["paper_synthetic"]["identification"]["method"] == "lm"
+    assert config["scenes"]["example_patient"]["initial"]["R"] == pytest.approx(0.0562)
+
+
+def test_every_schema_key_has_a_default_or_is_required_and_a_description():
+    schema = yaml.safe_load(SCHEMA.read_text())
+
+    def walk(node, path):
+        for key, sub in node.get("properties", {}).items():
+            sub_path = f"{path}.{key}"
+            assert "description" in sub or "$ref" in sub, sub_path
+            required = key in node.get("required", []) or path.endswith("postures")
+            assert "default" in sub or required or "$ref" in sub or path.startswith(".definitions.patient.postures") \
+                or path.endswith(".properties") or key in ("volume", "area", "height", "frontal_depth",
+                                                           "back_depth", "angle"), sub_path
+            walk(sub, sub_path)
+        if isinstance(node.get("additionalProperties"), dict):
+            walk(node["additionalProperties"], path + ".*")
+
+    walk(schema, "")
+    for name, sub in schema["definitions"].items():
+        walk(sub, f".definitions.{name}")
+
+
+def _bad(mutate):
+    config = copy.deepcopy(DEFAULT)
+    mutate(config)
+    with pytest.raises(ConfigError) as info:
+        validate_config(config, SCHEMA)
+    return str(info.value)
+
+
+def test_unknown_key():
+    assert "colour" in _bad(lambda c: c.update(colour="red"))
+    assert "scenes.example_patient" in _bad(lambda c: c["scenes"]["example_patient"].update(nme="x"))
+
+
+def test_negative_measurement():
+    msg = _bad(lambda c: c["scenes"]["example_patient"]["postures"]["standing"].update(volume=-5))
+    assert "scenes.example_patient.postures.standing.volume" in msg
+
+
+def test_unknown_unit():
+    msg = _bad(lambda c: c["scenes"]["example_patient"]["units"].update(volume="pints"))
+    assert "scenes.example_patient.units.volume" in msg and "pints" in msg
+
+
+def test_H_not_below_R_in_initial_guess():
+    msg = _bad(lambda c: c["scenes"]["example_patient"].update(initial={"R": 0.05, "H": 0.06}))
+    assert "scenes.example_patient.initial.H" in msg
+
+
+def test_unknown_mesh_level_and_posture():
+    assert "unknown mesh level 'huge'" in _bad(lambda c: c["scenes"]["forward_demo"].update(mesh="huge"))
+    msg = _bad(lambda c: c["scenes"]["forward_demo"].update(postures=["standing", "supine"]))
+    assert "scenes.forward_demo.postures" in msg and "supine" in msg
+    msg = _bad(lambda c: c["scenes"]["example_patient"]["postures"].update(supine=dict(
+        c["scenes"]["example_patient"]["postures"]["standing"])))
+    assert "supine" in msg
+
+
+def test_scene_without_measurements():
+    msg = _bad(lambda c: c["scenes"]["example_patient"].update(postures={}))
+    assert "scenes.example_patient.postures" in msg
+    msg = _bad(lambda c: c["scenes"]["example_patient"]["postures"]["fours"].pop("height"))
+    assert "missing height" in msg
+
+
+def test_non_finite_number():
+    msg = _bad(lambda c: c["constants"].update(chassaignac=float("nan")))
+    assert "constants.chassaignac" in msg and "finite" in msg
+    msg = _bad(lambda c: c["scenes"]["example_patient"]["postures"]["bent45"].update(area=float("inf")))
+    assert "scenes.example_patient.postures.bent45.area" in msg
+
+
+def test_snakemake_stops_before_any_job_on_a_bad_config(tmp_path):
+    config = copy.deepcopy(DEFAULT)
+    config["scenes"]["example_patient"]["postures"]["standing"]["volume"] = -5
+    (tmp_path / "config.yaml").write_text(yaml.safe_dump(config))
+    out = subprocess.run([str(Path(sys.executable).parent / "snakemake"), "-n", "-s", str(ROOT / "Snakefile"),
+                          "-d", str(tmp_path)], capture_output=True, text=True)
+    assert out.returncode != 0
+    assert "scenes.example_patient.postures.standing.volume" in out.stdout + out.stderr
+    assert not (tmp_path / "results").exists()

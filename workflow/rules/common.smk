@@ -1,0 +1,26 @@
+# The job plan (breastcore.workflow_plan) and helpers shared by the rules.
+import hashlib
+import json
+
+from breastcore import source_hash
+from breastcore.workflow_plan import Plan
+
+PLAN = Plan(config)
+RESULTS = PLAN.results
+CODE = source_hash()          # a param of every rule: changed code reruns what it affects
+CONFIG_HASH = hashlib.sha1(json.dumps(config, sort_keys=True).encode()).hexdigest()[:12]
+
+wildcard_constraints:
+    name="[^/]+",
+    key="[0-9a-f]{10}",
+    scene="[A-Za-z][A-Za-z0-9_-]*",
+    posture="[A-Za-z][A-Za-z0-9_-]*",
+
+
+def job(stage):
+    """Params function: the spec of the job that writes this output."""
+    return lambda wildcards, output: PLAN.jobs[stage][output[0]]
+
+
+def scene_of(wildcards):
+    return PLAN.scene(wildcards.scene)

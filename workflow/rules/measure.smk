@@ -1,0 +1,9 @@
+rule measure:
+    input: solution=lambda w: PLAN.jobs["measure"][f"{RESULTS}/measure/{w.key}.nc"].get("solution", [])
+    output: f"{RESULTS}/measure/{{key}}.nc"
+    log: f"{RESULTS}/logs/measure/{{key}}.log"
+    benchmark: f"{RESULTS}/benchmarks/measure/{{key}}.tsv"
+    params:
+        spec=job("measure"),
+        code=CODE,
+    script: "../scripts/measure.py"

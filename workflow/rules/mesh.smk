@@ -1,0 +1,8 @@
+rule mesh:
+    output: f"{RESULTS}/mesh/{{name}}.nc"
+    log: f"{RESULTS}/logs/mesh/{{name}}.log"
+    benchmark: f"{RESULTS}/benchmarks/mesh/{{name}}.tsv"
+    params:
+        spec=job("mesh"),
+        code=CODE,
+    script: "../scripts/mesh.py"

@@ -1,0 +1,71 @@
+# Figures and tables of each scene, registered for `snakemake --report results/report.html`.
+rule shape_picture:
+    input: lambda w: PLAN.shape_source(w.scene)
+    output: report(f"{RESULTS}/scenes/{{scene}}/shape_{{posture}}.png", caption="../report/shape.rst", category="Shapes", subcategory="{scene}")
+    log: f"{RESULTS}/logs/scenes/{{scene}}/shape_{{posture}}.log"
+    benchmark: f"{RESULTS}/benchmarks/scenes/{{scene}}/shape_{{posture}}.tsv"
+    params:
+        posture=lambda w: w.posture,
+        code=CODE,
+    script: "../scripts/shape_picture.py"
+
+
+rule shape_vtu:
+    input: lambda w: PLAN.shape_source(w.scene)
+    output: f"{RESULTS}/scenes/{{scene}}/shape_{{posture}}.vtu"
+    log: f"{RESULTS}/logs/scenes/{{scene}}/vtu_{{posture}}.log"
+    benchmark: f"{RESULTS}/benchmarks/scenes/{{scene}}/vtu_{{posture}}.tsv"
+    params:
+        posture=lambda w: w.posture,
+        code=CODE,
+    script: "../scripts/shape_vtu.py"
+
+
+rule convergence_figure:
+    input: lambda w: [r["identification"] for r in scene_of(w)["runs"]] if scene_of(w)["kind"] == "synthetic" else [scene_of(w)["identification"]]
+    output: report(f"{RESULTS}/scenes/{{scene}}/convergence.png", caption="../report/convergence.rst", category="Identification", subcategory="{scene}")
+    log: f"{RESULTS}/logs/scenes/{{scene}}/convergence.log"
+    benchmark: f"{RESULTS}/benchmarks/scenes/{{scene}}/convergence.tsv"
+    params:
+        code=CODE,
+    script: "../scripts/convergence_figure.py"
+
+
+rule parameter_table:
+    input: lambda w: scene_of(w)["identification"]
+    output: report(f"{RESULTS}/scenes/{{scene}}/parameters.csv", caption="../report/parameters.rst", category="Identification", subcategory="{scene}")
+    log: f"{RESULTS}/logs/scenes/{{scene}}/parameters.log"
+    benchmark: f"{RESULTS}/benchmarks/scenes/{{scene}}/parameters.tsv"
+    params:
+        code=CODE,
+    script: "../scripts/parameter_table.py"
+
+
+rule error_table:
+    input: f"{RESULTS}/scenes/{{scene}}/summary.nc"
+    output: report(f"{RESULTS}/scenes/{{scene}}/parameter_errors.csv", caption="../report/errors.rst", category="Identification", subcategory="{scene}")
+    log: f"{RESULTS}/logs/scenes/{{scene}}/errors.log"
+    benchmark: f"{RESULTS}/benchmarks/scenes/{{scene}}/errors.tsv"
+    params:
+        code=CODE,
+    script: "../scripts/error_table.py"
+
+
+rule diagnostics_table:
+    input: lambda w: PLAN.shape_source(w.scene)
+    output: report(f"{RESULTS}/scenes/{{scene}}/diagnostics.csv", caption="../report/diagnostics.rst", category="Solver diagnostics", subcategory="{scene}")
+    log: f"{RESULTS}/logs/scenes/{{scene}}/diagnostics.log"
+    benchmark: f"{RESULTS}/benchmarks/scenes/{{scene}}/diagnostics.tsv"
+    params:
+        code=CODE,
+    script: "../scripts/diagnostics_table.py"
+
+
+rule sensitivity_figure:
+    input: lambda w: scene_of(w)["sensitivity"][0]
+    output: report(f"{RESULTS}/scenes/{{scene}}/sensitivity.png", caption="../report/sensitivity.rst", category="Sensitivity", subcategory="{scene}")
+    log: f"{RESULTS}/logs/scenes/{{scene}}/sensitivity.log"
+    benchmark: f"{RESULTS}/benchmarks/scenes/{{scene}}/sensitivity_figure.tsv"
+    params:
+        code=CODE,
+    script: "../scripts/sensitivity_figure.py"

@@ -1,0 +1,9 @@
+rule solve:
+    input: mesh=lambda w: PLAN.jobs["solve"][f"{RESULTS}/solve/{w.key}.nc"]["mesh"]
+    output: f"{RESULTS}/solve/{{key}}.nc"
+    log: f"{RESULTS}/logs/solve/{{key}}.log"
+    benchmark: f"{RESULTS}/benchmarks/solve/{{key}}.tsv"
+    params:
+        spec=job("solve"),
+        code=CODE,
+    script: "../scripts/solve.py"

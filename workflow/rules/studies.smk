@@ -1,0 +1,11 @@
+# Scene summaries: one dataset per scene gathering what it computed.
+rule scene_summary:
+    input: lambda w: PLAN.scene_inputs(f"{RESULTS}/scenes/{w.scene}/summary.nc")
+    output: f"{RESULTS}/scenes/{{scene}}/summary.nc"
+    log: f"{RESULTS}/logs/scenes/{{scene}}/summary.log"
+    benchmark: f"{RESULTS}/benchmarks/scenes/{{scene}}/summary.tsv"
+    params:
+        spec=lambda w: scene_of(w),
+        scene=lambda w: w.scene,
+        code=CODE,
+    script: "../scripts/scene_summary.py"

@@ -1,0 +1,14 @@
+"""Snakemake script of the error_table rule: mean parameter error per mesh and offset (CSV, %)."""
+
+from breastcore.datasets import open_dataset
+from breastcore.logs import log_to
+from breastcore.scene import error_table
+
+
+def main(snakemake):
+    with log_to(snakemake.log[0]):
+        error_table(open_dataset(snakemake.input[0])).to_csv(snakemake.output[0])
+
+
+if __name__ == "__main__":
+    main(snakemake)  # noqa: F821

@@ -1,0 +1,21 @@
+"""Snakemake script of the scene_summary rule: one summary dataset per scene."""
+
+from breastcore.datasets import write_netcdf
+from breastcore.logs import log_to
+from breastcore.scene import solution_summary, synthetic_summary
+from breastcore.workflow_plan import spec_key
+
+
+def main(snakemake):
+    spec, name = snakemake.params.spec, snakemake.params.scene
+    with log_to(snakemake.log[0]):
+        if spec["kind"] == "synthetic":
+            ds = synthetic_summary(spec["runs"], [r["identification"] for r in spec["runs"]], name, spec_key(spec))
+        else:
+            source = spec["identification"] if spec["kind"] == "patient" else spec["solution"]
+            ds = solution_summary(source, name, spec["kind"], spec_key(spec))
+        write_netcdf(ds, snakemake.output[0])
+
+
+if __name__ == "__main__":
+    main(snakemake)  # noqa: F821
