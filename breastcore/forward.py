@@ -9,7 +9,9 @@ and then in the Chassaignac smoothing δ down to its target, with a Newton solve
 
 from __future__ import annotations
 
+import dataclasses
 import logging
+import multiprocessing as mp
 import time
 from dataclasses import dataclass, field
 
@@ -45,6 +47,12 @@ class SolverOptions:
     min_step : float
         Smallest continuation step (in load factor or in decades of δ).
     cg_max_iterations : int
+    max_extensions : int
+        Newton only: a step that reaches ``max_iterations`` while its energy still
+        fell by more than 0.1 % over those iterations is continued from where it
+        stopped, up to this many more times, before the step is halved. (Far from
+        equilibrium, e.g. μ = 15 Pa without skin on all fours, the minimiser needs
+        ~200 iterations and halving the load step does not shorten the way.)
     """
 
     method: str = "newton"
@@ -54,6 +62,7 @@ class SolverOptions:
     max_iterations: int = 100
     min_step: float = 1.0 / 256
     cg_max_iterations: int = 20000
+    max_extensions: int = 4
 
     def __post_init__(self):
         if self.method not in ("newton", "cg"):
@@ -88,10 +97,21 @@ class SolveError(RuntimeError):
         self.load_factor = load_factor
         self.smoothing = smoothing
         self.posture = posture
+        self._message = message
         super().__init__(
             f"{posture}: {message} after {iterations} iterations; |g|={gradient_norm:.3e} N "
             f"(tolerance {tolerance:.3e} N), min det F={min_det_F:.3e}, "
             f"continuation reached load factor {load_factor:.4g}, δ={smoothing:.3e} m")
+
+    def __reduce__(self):                                            # picklable (parallel postures)
+        return (_rebuild_solve_error, (self._message, dict(
+            iterations=self.iterations, gradient_norm=self.gradient_norm, tolerance=self.tolerance,
+            min_det_F=self.min_det_F, load_factor=self.load_factor, smoothing=self.smoothing,
+            posture=self.posture)))
+
+
+def _rebuild_solve_error(message, fields):
+    return SolveError(message, **fields)
 
 
 @dataclass(frozen=True)
@@ -210,12 +230,73 @@ class ForwardModel:
         """Equilibrium of ``posture``; see :func:`solve_posture`."""
         return solve_posture(self, params, posture, start)
 
+    def solve_postures(self, params: Parameters, postures, starts=None, processes=1) -> list[PostureSolution]:
+        """Equilibria of several postures, optionally in ``processes`` forked worker processes.
+
+        The postures are independent solves, so running them in parallel gives the
+        same results bit for bit (PARDISO runs single-threaded, see
+        :data:`breastcore.solver.PARDISO_THREADS_ENV`). ``starts`` maps a posture
+        name to a warm start. Falls back to one process where ``fork`` is not
+        available or this process may not have children (a daemon).
+
+        Raises
+        ------
+        SolveError
+            The first posture that failed (after all have run).
+        """
+        postures = list(postures)
+        starts = starts or {}
+        tasks = [(self, params, p, starts.get(p.name)) for p in postures]
+        processes = min(int(processes or 1), len(postures))
+        if processes > 1 and "fork" in mp.get_all_start_methods() and not mp.current_process().daemon:
+            global _PARALLEL_TASKS
+            _PARALLEL_TASKS = tasks
+            try:
+                with mp.get_context("fork").Pool(processes) as pool:
+                    outcomes = pool.map(_solve_task, range(len(tasks)), chunksize=1)
+            finally:
+                _PARALLEL_TASKS = None
+        else:
+            outcomes = [_solve_task(i, tasks) for i in range(len(tasks))]
+        for outcome in outcomes:
+            if isinstance(outcome, SolveError):
+                raise outcome
+        return outcomes
+
+
+_PARALLEL_TASKS = None
+
+
+def _solve_task(index, tasks=None):
+    """Solve one task of :meth:`ForwardModel.solve_postures`; a SolveError is returned, not raised."""
+    model, params, posture, start = (tasks or _PARALLEL_TASKS)[index]
+    if tasks is None:                                                # forked child: own PARDISO analysis
+        for assembler in model._assemblers.values():
+            assembler._pattern = None
+    try:
+        return model.solve(params, posture, start)
+    except SolveError as err:
+        return err
+
 
 def _minimise(model, problem, z, tolerance):
     if model.options.method == "cg":
         from .cg import conjugate_gradient
         return conjugate_gradient(problem, z, tolerance, model.options.cg_max_iterations)
-    return newton(problem, z, tolerance, model.options.max_iterations)
+    result = newton(problem, z, tolerance, model.options.max_iterations)
+    iterations = result.iterations
+    for _ in range(model.options.max_extensions):                  # still going downhill: keep going
+        if result.success or result.message != "iteration limit":
+            break
+        start_energy = problem.value(z)
+        if not start_energy - result.energy > 1e-3 * abs(result.energy):
+            break
+        z = result.x
+        log.debug("iteration limit with the energy still falling (%.6e → %.6e): continuing", start_energy,
+                  result.energy)
+        result = newton(problem, z, tolerance, model.options.max_iterations)
+        iterations += result.iterations
+    return dataclasses.replace(result, iterations=iterations) if iterations != result.iterations else result
 
 
 def _diagnostics(problem, x):
@@ -366,5 +447,8 @@ def _finish(problem, result, posture, iterations, steps, tic):
     min_det, stretch = _diagnostics(problem, x)
     log.info("%s: converged in %d iterations (%d continuation steps), |g|=%.3e N", posture.name,
              iterations, steps, result.gradient_norm)
+    extra = {}
+    if getattr(result, "negative_pivots", None) is not None:
+        extra["negative_pivots"] = int(result.negative_pivots)         # > 0: a saddle (see NewtonResult)
     return PostureSolution(posture, x, True, iterations, steps, result.gradient_norm, result.tolerance,
-                           result.energy, min_det, stretch, time.perf_counter() - tic)
+                           result.energy, min_det, stretch, time.perf_counter() - tic, extra)

@@ -73,3 +73,24 @@ def sensitivity_figure(ds, path):
         ax.set_title(name)
         fig.colorbar(im, ax=ax)
     _save(fig, path)
+
+
+def error_vs_runtime_figure(summary, path):
+    """Log–log mean parameter error and measurement residual against wall time, per method and mesh."""
+    fig, axes = plt.subplots(1, 2, figsize=(10, 4))
+    methods = list(dict.fromkeys(summary["method"].values))
+    error = np.abs(summary["relative_error"].values).mean(axis=1) * 100
+    for k, method in enumerate(methods):
+        sel = summary["method"].values == method
+        t = summary["wall_time"].values[sel]
+        for ax, y in zip(axes, (error[sel], summary["measurement_residual"].values[sel] * 100)):
+            ax.loglog(t, np.maximum(y, 1e-12), "o", color=f"C{k}", label=method)
+            for ti, yi, mesh in zip(t, y, summary["mesh"].values[sel]):
+                ax.annotate(str(mesh), (ti, max(yi, 1e-12)), fontsize=7)
+    axes[0].set_ylabel("mean |parameter error| (%)")
+    axes[1].set_ylabel("RMS measurement residual (%)")
+    for ax in axes:
+        ax.set_xlabel("identification wall time (s)")
+        ax.grid(True, which="both", alpha=0.3)
+    axes[0].legend(fontsize=8)
+    _save(fig, path)

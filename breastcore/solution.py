@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import json
+
 import numpy as np
 import xarray as xr
 
@@ -67,13 +69,8 @@ def equilibrium_residual(ds: xr.Dataset, posture: str):
     """
     mesh = mesh_from_dataset(ds)
     params = parameters_from_dataset(ds)
-    model = ForwardModel(mesh, SolverOptions(rtol=float(_json_attr(ds, "solver_options")["rtol"])))
+    model = ForwardModel(mesh, SolverOptions(rtol=float(json.loads(ds.attrs["solver_options"])["rtol"])))
     p = next(p for p in postures_from_dataset(ds) if p.name == posture)
     problem = model.problem(params, p)
     x = ds["position"].sel(posture=posture).values
     return float(np.linalg.norm(problem.gradient(problem.free(x)))), model.tolerance(params, p)
-
-
-def _json_attr(ds, key):
-    import json
-    return json.loads(ds.attrs[key])

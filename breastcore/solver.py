@@ -58,6 +58,10 @@ class NewtonResult:
         Gradient norm before each iteration, N.
     message : str
         Why it stopped.
+    negative_pivots : int or None
+        Negative eigenvalues of the exact Hessian factorised at the last Newton
+        iteration (PARDISO's inertia; ``None`` if unknown). Non-zero at a
+        converged solve means the equilibrium is a saddle, not a minimum.
     """
 
     x: np.ndarray
@@ -69,6 +73,7 @@ class NewtonResult:
     projected_steps: int
     history: tuple
     message: str
+    negative_pivots: int | None = None
 
 
 #: Threads PARDISO may use (environment variable ``BREASTCORE_PARDISO_THREADS``, default 1).
@@ -344,6 +349,7 @@ def newton(problem, z0, tolerance, max_iterations=50):
     projected = 0
     message = "iteration limit"
     pattern = getattr(problem, "pattern", None)                      # reuse the symbolic factorisation
+    inertia = None
     for it in range(max_iterations + 1):
         g = problem.gradient(z)
         g_norm = _norm(g)
@@ -352,7 +358,8 @@ def newton(problem, z0, tolerance, max_iterations=50):
             message = "non-finite gradient"
             break
         if g_norm <= tolerance:
-            return NewtonResult(z, True, it, g_norm, tolerance, energy, projected, tuple(history), "converged")
+            return NewtonResult(z, True, it, g_norm, tolerance, energy, projected, tuple(history), "converged",
+                                inertia)
         if it == max_iterations:
             break
         accepted = None
@@ -361,6 +368,8 @@ def newton(problem, z0, tolerance, max_iterations=50):
             if mode == "shift":
                 K = K + sp.identity(K.shape[0], format="csr") * (1e-6 * abs(K.diagonal()).max())
             factor, d = _factor_solve(K, g, pattern)
+            if mode == "exact":
+                inertia = None if factor is None else factor.negative_pivots
             if d is None or _dot(g, d) >= -1e-12 * g_norm * _norm(d):
                 continue
             accepted = _line_search(problem, z, d, energy, g, g_norm, expand=(mode != "exact"))
@@ -373,4 +382,5 @@ def newton(problem, z0, tolerance, max_iterations=50):
         step, z, energy = accepted
         log.debug("newton it=%d |g|=%.3e step=%.3g E=%.9e mode=%s neg=%s", it, g_norm, step, energy, mode,
                   factor.negative_pivots)
-    return NewtonResult(z, False, len(history) - 1, history[-1], tolerance, energy, projected, tuple(history), message)
+    return NewtonResult(z, False, len(history) - 1, history[-1], tolerance, energy, projected, tuple(history), message,
+                        inertia)

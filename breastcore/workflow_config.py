@@ -108,7 +108,13 @@ def validate_config(config, schema_path) -> dict:
         _check(scene, schema, root, where)
         fill_defaults(scene, schema, root)
         if kind == "synthetic":
-            _levels([scene["truth_mesh"], *scene["meshes"]], f"{where}.meshes")
+            for item in scene["methods"]:
+                fill_defaults(item, root["definitions"]["synthetic"]["properties"]["methods"]["items"], root)
+            names = [m["name"] for m in scene["methods"]]
+            if len(set(names)) != len(names):
+                raise ConfigError(f"config key {where}.methods: repeated method name in {names}")
+            _levels([scene["truth_mesh"], *scene["meshes"], *(lv for m in scene["methods"] for lv in m.get("meshes", []))],
+                    f"{where}.meshes")
             _postures(scene["postures"], f"{where}.postures")
             _cap(scene["truth"], f"{where}.truth")
         elif kind == "patient":

@@ -81,9 +81,9 @@ class Plan:
                 "solver": self.solver}
         return self._add("solve", spec)
 
-    def identify(self, measure_path, level, initial, identification):
+    def identify(self, measure_path, level, initial, identification, solver=None):
         spec = {"measurements": measure_path, "mesh": self.mesh(level), "initial": initial,
-                "constants": self.constants, "solver": self.solver, "identification": identification}
+                "constants": self.constants, "solver": solver or self.solver, "identification": identification}
         return self._add("identify", spec)
 
     def sensitivity(self, identify_path, mode):
@@ -97,11 +97,17 @@ class Plan:
         measured = self._add("measure", {"solution": truth, "measurement_set": scene["measurement_set"],
                                          "noise": scene["noise"], "seed": scene["seed"]})
         runs = []
-        for level in scene["meshes"]:
-            for offset in scene["offsets"]:
-                for i, guess in enumerate(initial_guesses(scene["truth"], offset, scene["starts"], scene["seed"])):
-                    path = self.identify(measured, level, guess, scene["identification"])
-                    runs.append({"mesh": level, "offset": offset, "start": i, "identification": path})
+        for m in scene["methods"]:
+            ident = {**scene["identification"], "method": m.get("method", "lm"),
+                     "jacobian": m.get("jacobian", "implicit"), "max_iterations": m.get("max_iterations", 50)}
+            solver = {**self.solver, "method": m.get("solver", "newton")}
+            for level in m.get("meshes", scene["meshes"]):
+                for offset in scene["offsets"]:
+                    guesses = initial_guesses(scene["truth"], offset, scene["starts"], scene["seed"])
+                    for i, guess in enumerate(guesses):
+                        path = self.identify(measured, level, guess, ident, solver)
+                        runs.append({"method": m["name"], "mesh": level, "offset": offset, "start": i,
+                                     "identification": path})
         sens = [self.sensitivity(r["identification"], scene["sensitivity"]) for r in runs[:1]
                 if scene["sensitivity"] != "none"]
         return self._scene(name, "synthetic", {"runs": runs, "truth": truth, "sensitivity": sens})
@@ -132,7 +138,7 @@ class Plan:
         """Report files of a scene (PNG pictures and CSV tables)."""
         folder = f"{self.results}/scenes/{name}"
         if spec["kind"] == "synthetic":
-            out = [f"{folder}/convergence.png", f"{folder}/parameter_errors.csv"]
+            out = [f"{folder}/convergence.png", f"{folder}/parameter_errors.csv", f"{folder}/error_vs_runtime.png"]
         else:
             out = [f"{folder}/shape_{p}.{ext}" for p in spec["postures"] for ext in ("png", "vtu")]
             out.append(f"{folder}/diagnostics.csv")

@@ -38,5 +38,7 @@ def run(args):
         ds = measurement_dataset(target, str(args.solution), landmarks=marks,
                                  truth=parameters_from_dataset(solution))
     write_netcdf(ds, args.out)
-    print(ds["measurement"].to_pandas().to_string() if hasattr(ds["measurement"], "to_pandas") else ds["measurement"])
+    table = ds["measurement"].to_pandas()
+    table.columns = [f"{q} [{u}]" for q, u in zip(ds["quantity"].values, ds["quantity_units"].values)]
+    print(table.to_string())
     print(f"wrote {args.out}")

@@ -24,3 +24,7 @@ def job(stage):
 
 def scene_of(wildcards):
     return PLAN.scene(wildcards.scene)
+
+
+def identify_spec(wildcards):
+    return PLAN.jobs["identify"][f"{RESULTS}/identify/{wildcards.key}.nc"]

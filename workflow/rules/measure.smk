@@ -6,4 +6,5 @@ rule measure:
     params:
         spec=job("measure"),
         code=CODE,
+    conda: "../envs/breastcore.yaml"
     script: "../scripts/measure.py"

@@ -5,4 +5,5 @@ rule mesh:
     params:
         spec=job("mesh"),
         code=CODE,
+    conda: "../envs/breastcore.yaml"
     script: "../scripts/mesh.py"

@@ -7,6 +7,7 @@ rule shape_picture:
     params:
         posture=lambda w: w.posture,
         code=CODE,
+    conda: "../envs/breastcore.yaml"
     script: "../scripts/shape_picture.py"
 
 
@@ -18,6 +19,7 @@ rule shape_vtu:
     params:
         posture=lambda w: w.posture,
         code=CODE,
+    conda: "../envs/breastcore.yaml"
     script: "../scripts/shape_vtu.py"
 
 
@@ -28,6 +30,7 @@ rule convergence_figure:
     benchmark: f"{RESULTS}/benchmarks/scenes/{{scene}}/convergence.tsv"
     params:
         code=CODE,
+    conda: "../envs/breastcore.yaml"
     script: "../scripts/convergence_figure.py"
 
 
@@ -38,6 +41,7 @@ rule parameter_table:
     benchmark: f"{RESULTS}/benchmarks/scenes/{{scene}}/parameters.tsv"
     params:
         code=CODE,
+    conda: "../envs/breastcore.yaml"
     script: "../scripts/parameter_table.py"
 
 
@@ -48,6 +52,7 @@ rule error_table:
     benchmark: f"{RESULTS}/benchmarks/scenes/{{scene}}/errors.tsv"
     params:
         code=CODE,
+    conda: "../envs/breastcore.yaml"
     script: "../scripts/error_table.py"
 
 
@@ -58,6 +63,7 @@ rule diagnostics_table:
     benchmark: f"{RESULTS}/benchmarks/scenes/{{scene}}/diagnostics.tsv"
     params:
         code=CODE,
+    conda: "../envs/breastcore.yaml"
     script: "../scripts/diagnostics_table.py"
 
 
@@ -68,4 +74,16 @@ rule sensitivity_figure:
     benchmark: f"{RESULTS}/benchmarks/scenes/{{scene}}/sensitivity_figure.tsv"
     params:
         code=CODE,
+    conda: "../envs/breastcore.yaml"
     script: "../scripts/sensitivity_figure.py"
+
+
+rule error_vs_runtime_figure:
+    input: f"{RESULTS}/scenes/{{scene}}/summary.nc"
+    output: report(f"{RESULTS}/scenes/{{scene}}/error_vs_runtime.png", caption="../report/error_vs_runtime.rst", category="Error against run time", subcategory="{scene}")
+    log: f"{RESULTS}/logs/scenes/{{scene}}/error_vs_runtime.log"
+    benchmark: f"{RESULTS}/benchmarks/scenes/{{scene}}/error_vs_runtime.tsv"
+    params:
+        code=CODE,
+    conda: "../envs/breastcore.yaml"
+    script: "../scripts/error_vs_runtime_figure.py"

@@ -6,4 +6,5 @@ rule sensitivity:
     params:
         spec=job("sensitivity"),
         code=CODE,
+    conda: "../envs/breastcore.yaml"
     script: "../scripts/sensitivity.py"

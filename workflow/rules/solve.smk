@@ -6,4 +6,5 @@ rule solve:
     params:
         spec=job("solve"),
         code=CODE,
+    conda: "../envs/breastcore.yaml"
     script: "../scripts/solve.py"

@@ -8,4 +8,5 @@ rule scene_summary:
         spec=lambda w: scene_of(w),
         scene=lambda w: w.scene,
         code=CODE,
+    conda: "../envs/breastcore.yaml"
     script: "../scripts/scene_summary.py"

@@ -1,0 +1,14 @@
+"""Snakemake script of the error_vs_runtime_figure rule."""
+
+from breastcore.datasets import open_dataset
+from breastcore.logs import log_to
+from breastcore.plots import error_vs_runtime_figure
+
+
+def main(snakemake):
+    with log_to(snakemake.log[0]):
+        error_vs_runtime_figure(open_dataset(snakemake.input[0]), snakemake.output[0])
+
+
+if __name__ == "__main__":
+    main(snakemake)  # noqa: F821
