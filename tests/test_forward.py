@@ -87,3 +87,21 @@ def test_no_gravity_leaves_the_cap_at_rest(coarse):
     model = ForwardModel(coarse)
     sol = model.solve(Parameters(gravity_magnitude=0.0), Posture("standing", 0.0))
     assert np.allclose(sol.position, model.reference(Parameters().R, Parameters().H), atol=1e-12)
+
+
+def test_energy_at_fixed_deformation_is_differentiable_in_R_and_H(coarse):
+    """Through the smooth map, J(R, H; x) at a fixed deformed state has consistent central differences."""
+    model = ForwardModel(coarse)
+    p = Parameters()
+    posture = Posture("bent45", 45.0)
+    x = model.solve(p, posture).position
+
+    def energy(**change):
+        return model.problem(p.replace(**change), posture).energy.value(x)
+
+    for name in ("R", "H"):
+        value = getattr(p, name)
+        slopes = [(energy(**{name: value * (1 + h)}) - energy(**{name: value * (1 - h)})) / (2 * h * value)
+                  for h in (1e-4, 1e-5)]
+        assert np.isfinite(slopes).all() and abs(slopes[0]) > 0
+        assert slopes[0] == pytest.approx(slopes[1], rel=1e-5)
