@@ -97,3 +97,18 @@ def run_sensitivity(spec, identify_path, out, config_hash=None):
     if spec["finite"]:
         finite, failures = finite_sensitivity(mm, target, estimate, options, spec["delta"])
     write_netcdf(sensitivity_dataset(ds, finite, linear, failures, spec["delta"], config_hash), out)
+
+
+def run_stability(spec, mesh_path, out, config_hash=None):
+    """Solve every case of the chunk; each ends in a recorded outcome (the job never fails on a case)."""
+    from .stability import run_case, stability_dataset
+    model = ForwardModel(mesh_from_dataset(open_dataset(mesh_path)), SolverOptions(**spec["solver"]))
+    base = Parameters(**spec["constants"])
+    outcomes, records, messages = [], [], []
+    for i, case in enumerate(spec["cases"]):
+        outcome, record, message = run_case(model, case, base)
+        log.info("case %d/%d %s: %s %s", i + 1, len(spec["cases"]), case, outcome, message)
+        outcomes.append(outcome)
+        records.append(record)
+        messages.append(message)
+    write_netcdf(stability_dataset(spec["cases"], outcomes, records, messages, spec["level"], config_hash), out)

@@ -94,3 +94,26 @@ def error_vs_runtime_figure(summary, path):
         ax.grid(True, which="both", alpha=0.3)
     axes[0].legend(fontsize=8)
     _save(fig, path)
+
+
+def stability_map(ds, path):
+    """Convergence rate for pairs of factors (a convergence map), one panel per pair."""
+    pairs = [("lam_over_mu", "mu"), ("mu_s", "c"), ("H_over_R", "delta")]
+    fig, axes = plt.subplots(1, len(pairs), figsize=(5 * len(pairs), 4))
+    converged = ds["outcome"].values == "converged"
+    for ax, (a, b) in zip(axes, pairs):
+        va, vb = sorted(set(ds[a].values.tolist())), sorted(set(ds[b].values.tolist()))
+        rate = np.full((len(vb), len(va)), np.nan)
+        for i, y in enumerate(vb):
+            for j, x in enumerate(va):
+                sel = (ds[a].values == x) & (ds[b].values == y)
+                if sel.any():
+                    rate[i, j] = converged[sel].mean()
+        im = ax.imshow(rate, vmin=0, vmax=1, cmap="RdYlGn", origin="lower")
+        ax.set_xticks(range(len(va)), [f"{v:g}" for v in va])
+        ax.set_yticks(range(len(vb)), [f"{v:g}" for v in vb])
+        ax.set_xlabel(a)
+        ax.set_ylabel(b)
+    fig.colorbar(im, ax=list(axes), label="fraction converged")
+    fig.savefig(path, dpi=110)
+    plt.close(fig)

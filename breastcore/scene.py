@@ -87,3 +87,30 @@ def diagnostics_table(ds: xr.Dataset) -> pd.DataFrame:
     """Solver diagnostics per posture of a solution (or identification: ``solve_*``) dataset."""
     cols = {k: ds[n].values for k in DIAGNOSTICS for n in (k, "solve_" + k) if n in ds and "posture" in ds[n].dims}
     return pd.DataFrame(cols, index=pd.Index(ds["posture"].values, name="posture"))
+
+
+def stability_summary(paths, name, config_hash=None) -> xr.Dataset:
+    """All cases of a stability scene in one dataset, with the outcome counts."""
+    parts = [open_dataset(p) for p in paths]
+    ds = xr.concat(parts, dim="case", data_vars="all", combine_attrs="override")
+    ds["mesh"] = _var(("case",), np.concatenate([[p.attrs["mesh_level"]] * p.sizes["case"] for p in parts]), "1",
+                      "mesh level")
+    outcomes = ds["outcome"].values
+    counts = {o: int((outcomes == o).sum()) for o in ("converged", "unverified", "nan", "solve_error", "crash")}
+    ds.attrs = provenance("scene", None, config_hash, scene=name, scene_kind="stability", outcome_counts=counts,
+                          convergence_rate=counts["converged"] / max(len(outcomes), 1),
+                          title=f"stability scene {name}")
+    return ds
+
+
+def stability_table(ds: xr.Dataset) -> pd.DataFrame:
+    """Outcome counts per value of every factor (and overall)."""
+    from .stability import FACTORS, OUTCOMES
+    rows = []
+    for factor in ("mesh", *FACTORS):
+        for value in dict.fromkeys(ds[factor].values):
+            sel = ds["outcome"].values[ds[factor].values == value]
+            rows.append({"factor": factor, "value": value, "cases": len(sel),
+                         **{o: int((sel == o).sum()) for o in OUTCOMES},
+                         "convergence_rate": float((sel == "converged").mean())})
+    return pd.DataFrame(rows)

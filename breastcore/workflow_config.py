@@ -16,7 +16,7 @@ import yaml
 from .mesh import LEVEL_MESH_SIZE
 from .postures import PostureError, parse_posture
 
-SCENE_KINDS = ("synthetic", "patient", "forward")
+SCENE_KINDS = ("synthetic", "patient", "forward", "stability")
 
 
 class ConfigError(ValueError):
@@ -97,6 +97,9 @@ def validate_config(config, schema_path) -> dict:
     _finite(config, "")
     _check(config, root, root, "")
     fill_defaults(config, root, root)
+    unknown = [n for n in config["run_scenes"] if n not in config["scenes"]]
+    if unknown:
+        raise ConfigError(f"config key run_scenes: unknown scene {unknown[0]!r}; scenes: {', '.join(config['scenes'])}")
     for name, scene in config["scenes"].items():
         where = f"scenes.{name}"
         kind = scene.get("kind")
@@ -126,6 +129,9 @@ def validate_config(config, schema_path) -> dict:
                 if missing:
                     raise ConfigError(f"config key {where}.postures.{posture}: missing {', '.join(missing)}")
             _cap(scene["initial"], f"{where}.initial")
+        elif kind == "stability":
+            _levels(scene["meshes"], f"{where}.meshes")
+            _postures(scene["grid"]["posture"], f"{where}.grid.posture")
         else:
             _levels([scene["mesh"]], f"{where}.mesh")
             _postures(scene["postures"], f"{where}.postures")

@@ -58,7 +58,9 @@ class Plan:
         self.constants = config["constants"]
         self.solver = config["solver"]
         self.report = config["report"]["enabled"]
-        self.jobs = {"mesh": {}, "solve": {}, "measure": {}, "identify": {}, "sensitivity": {}, "scene": {}}
+        self.run_scenes = config.get("run_scenes") or list(config["scenes"])
+        self.jobs = {"mesh": {}, "solve": {}, "measure": {}, "identify": {}, "sensitivity": {}, "stability": {},
+                     "scene": {}}
         self.scenes = {}
         for name, scene in config["scenes"].items():
             self.scenes[name] = getattr(self, f"_{scene['kind']}")(name, scene)
@@ -127,6 +129,18 @@ class Plan:
         solution = self.solve(self.mesh(scene["mesh"]), scene["parameters"], postures)
         return self._scene(name, "forward", {"solution": solution, "postures": [p["name"] for p in postures]})
 
+    def _stability(self, name, scene):
+        from .stability import grid_cases
+        chunks = []
+        for level in scene["meshes"]:
+            cases = grid_cases(scene["grid"], scene["sample"], scene["seed"])
+            for i in range(scene["chunks"]):
+                part = cases[i::scene["chunks"]]
+                if part:
+                    chunks.append(self._add("stability", {"mesh": self.mesh(level), "level": level, "cases": part,
+                                                          "constants": self.constants, "solver": self.solver}))
+        return self._scene(name, "stability", {"chunks": chunks})
+
     def _scene(self, name, kind, spec):
         spec = {"kind": kind, **spec}
         folder = f"{self.results}/scenes/{name}"
@@ -137,6 +151,8 @@ class Plan:
     def figures(self, name, spec):
         """Report files of a scene (PNG pictures and CSV tables)."""
         folder = f"{self.results}/scenes/{name}"
+        if spec["kind"] == "stability":
+            return [f"{folder}/stability_map.png", f"{folder}/stability.csv"]
         if spec["kind"] == "synthetic":
             out = [f"{folder}/convergence.png", f"{folder}/parameter_errors.csv", f"{folder}/error_vs_runtime.png"]
         else:
@@ -158,6 +174,8 @@ class Plan:
             return [r["identification"] for r in spec["runs"]] + spec["sensitivity"] + [spec["truth"]]
         if spec["kind"] == "patient":
             return [spec["identification"], *spec["sensitivity"]]
+        if spec["kind"] == "stability":
+            return spec["chunks"]
         return [spec["solution"]]
 
     def shape_source(self, name):
@@ -166,7 +184,8 @@ class Plan:
         return spec["identification"] if spec["kind"] == "patient" else spec["solution"]
 
     def all_targets(self):
+        """Outputs of the scenes in ``run_scenes`` (all scenes if it is empty)."""
         out = []
-        for scene in self.scenes.values():
-            out += [scene["summary"], *scene["figures"]]
+        for name in self.run_scenes:
+            out += [self.scenes[name]["summary"], *self.scenes[name]["figures"]]
         return out

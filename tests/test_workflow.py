@@ -17,7 +17,11 @@ TINY = {
     "report": {"enabled": True},
     "scenes": {
         "syn": {"kind": "synthetic", "truth_mesh": "medium", "meshes": ["coarse"], "offsets": [0.1],
-                "sensitivity": "linearised", "identification": {"max_iterations": 15}},
+                "sensitivity": "linearised", "identification": {"max_iterations": 15},
+                "methods": [{"name": "lm", "max_iterations": 15},
+                            {"name": "paper", "method": "gauss-newton", "jacobian": "fd", "max_iterations": 2}]},
+        "grid": {"kind": "stability", "meshes": ["coarse"], "sample": 3, "chunks": 1,
+                 "grid": {"mu": [15.0, 1500.0], "delta": [1e-7], "posture": ["standing", "fours"]}},
         "alice": {"kind": "patient", "mesh": "coarse", "identification": {"max_iterations": 15},
                   "postures": {"standing": {"volume": 660, "area": 344, "height": 110, "frontal_depth": 51,
                                             "back_depth": 45},
@@ -74,7 +78,7 @@ def test_every_dataset_has_units_long_names_and_provenance(workdir):
             assert key in ds.attrs, (path, key)
         stages.add(ds.attrs["stage"])
         ds.close()
-    assert stages == {"mesh", "solve", "measure", "identify", "sensitivity", "scene"}
+    assert stages == {"mesh", "solve", "measure", "identify", "sensitivity", "stability", "scene"}
 
 
 def test_solution_dataset_follows_its_contract(workdir):
@@ -99,6 +103,12 @@ def test_scene_outputs_exist(workdir):
                  "diagnostics.csv", "summary.nc"):
         assert (scenes / "alice" / name).stat().st_size > 0
     assert (scenes / "syn/sensitivity.png").exists() and (scenes / "syn/parameter_errors.csv").exists()
+    assert (scenes / "syn/error_vs_runtime.png").exists()
+    summary = xr.open_dataset(scenes / "syn/summary.nc")
+    assert sorted(set(summary["method"].values)) == ["lm", "paper"]
+    grid = xr.open_dataset(scenes / "grid/summary.nc")
+    assert grid.sizes["case"] == 3 and set(grid["outcome"].values) <= {"converged", "solve_error"}
+    assert (scenes / "grid/stability_map.png").exists() and (scenes / "grid/stability.csv").exists()
     assert not (scenes / "fwd/shape_fours.png").exists()            # not asked for: not computed
     assert not (scenes / "alice/sensitivity.png").exists()
 
@@ -152,7 +162,7 @@ def test_list_and_show_browse_every_dataset(workdir, capsys):
     from breastcore.cli import main
     assert main(["list", str(workdir / "results")]) == 0
     listing = capsys.readouterr().out
-    for stage in ("mesh", "solve", "measure", "identify", "sensitivity", "scene"):
+    for stage in ("mesh", "solve", "measure", "identify", "sensitivity", "stability", "scene"):
         assert f" {stage} " in listing
     for path in (workdir / "results").rglob("*.nc"):
         assert main(["show", str(path)]) == 0

@@ -87,3 +87,20 @@ rule error_vs_runtime_figure:
         code=CODE,
     conda: "../envs/breastcore.yaml"
     script: "../scripts/error_vs_runtime_figure.py"
+
+
+rule stability_map:
+    input: f"{RESULTS}/scenes/{{scene}}/summary.nc"
+    output: report(f"{RESULTS}/scenes/{{scene}}/stability_map.png", caption="../report/stability.rst", category="Stability", subcategory="{scene}")
+    log: f"{RESULTS}/logs/scenes/{{scene}}/stability_map.log"
+    benchmark: f"{RESULTS}/benchmarks/scenes/{{scene}}/stability_map.tsv"
+    params:
+        code=CODE,
+    conda: "../envs/breastcore.yaml"
+    script: "../scripts/stability_report.py"
+
+
+use rule stability_map as stability_table with:
+    output: report(f"{RESULTS}/scenes/{{scene}}/stability.csv", caption="../report/stability.rst", category="Stability", subcategory="{scene}")
+    log: f"{RESULTS}/logs/scenes/{{scene}}/stability_table.log"
+    benchmark: f"{RESULTS}/benchmarks/scenes/{{scene}}/stability_table.tsv"

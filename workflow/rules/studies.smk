@@ -10,3 +10,15 @@ rule scene_summary:
         code=CODE,
     conda: "../envs/breastcore.yaml"
     script: "../scripts/scene_summary.py"
+
+
+rule stability:
+    input: mesh=lambda w: PLAN.jobs["stability"][f"{RESULTS}/stability/{w.key}.nc"]["mesh"]
+    output: f"{RESULTS}/stability/{{key}}.nc"
+    log: f"{RESULTS}/logs/stability/{{key}}.log"
+    benchmark: f"{RESULTS}/benchmarks/stability/{{key}}.tsv"
+    params:
+        spec=job("stability"),
+        code=CODE,
+    conda: "../envs/breastcore.yaml"
+    script: "../scripts/stability.py"

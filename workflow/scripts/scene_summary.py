@@ -2,14 +2,16 @@
 
 from breastcore.datasets import write_netcdf
 from breastcore.logs import log_to
-from breastcore.scene import solution_summary, synthetic_summary
+from breastcore.scene import solution_summary, stability_summary, synthetic_summary
 from breastcore.workflow_plan import spec_key
 
 
 def main(snakemake):
     spec, name = snakemake.params.spec, snakemake.params.scene
     with log_to(snakemake.log[0]):
-        if spec["kind"] == "synthetic":
+        if spec["kind"] == "stability":
+            ds = stability_summary(spec["chunks"], name, spec_key(spec))
+        elif spec["kind"] == "synthetic":
             ds = synthetic_summary(spec["runs"], [r["identification"] for r in spec["runs"]], name, spec_key(spec))
         else:
             source = spec["identification"] if spec["kind"] == "patient" else spec["solution"]

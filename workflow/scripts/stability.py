@@ -1,0 +1,15 @@
+"""Snakemake script of the stability rule: one chunk of grid cases, each a recorded outcome."""
+
+from breastcore.logs import log_to
+from breastcore.pipeline import run_stability
+from breastcore.workflow_plan import spec_key
+
+
+def main(snakemake):
+    spec = snakemake.params.spec
+    with log_to(snakemake.log[0]):
+        run_stability(spec, snakemake.input.mesh, snakemake.output[0], spec_key(spec))
+
+
+if __name__ == "__main__":
+    main(snakemake)  # noqa: F821
