@@ -176,3 +176,12 @@ def test_datasets_doc_covers_every_variable(workdir):
         with xr.open_dataset(path) as ds:
             missing = [name for name in ds.variables if f"`{name}`" not in doc]
         assert not missing, (path, missing)
+
+
+def test_results_page_is_generated_from_scene_summaries(workdir):
+    out = snakemake(workdir, "results_page")
+    assert out.returncode == 0, out.stderr[-2000:]
+    page = (workdir / "docs/results.md").read_text()
+    assert page.startswith("# Results") and "Machine:" in page
+    assert "Scene `grid`: stability" in page and "Scene `syn`: parameter error" in page
+    assert "0.08 | 0.39 | 0.42 | 0.89 | 0.27 | 2.77" in page          # the paper's Table 1 beside ours

@@ -1,5 +1,6 @@
 # The job plan (breastcore.workflow_plan) and helpers shared by the rules.
 import hashlib
+import os
 import json
 
 from breastcore import source_hash

@@ -104,3 +104,17 @@ use rule stability_map as stability_table with:
     output: report(f"{RESULTS}/scenes/{{scene}}/stability.csv", caption="../report/stability.rst", category="Stability", subcategory="{scene}")
     log: f"{RESULTS}/logs/scenes/{{scene}}/stability_table.log"
     benchmark: f"{RESULTS}/benchmarks/scenes/{{scene}}/stability_table.tsv"
+
+
+rule results_page:
+    input: unpack(lambda w: {name: PLAN.scenes[name]["summary"] for name in PLAN.run_scenes})
+    output: "docs/results.md"
+    log: f"{RESULTS}/logs/results_page.log"
+    benchmark: f"{RESULTS}/benchmarks/results_page.tsv"
+    params:
+        commands=lambda w: [f"snakemake --cores 2 results_page --configfile {os.path.relpath(f, workflow.basedir)}"
+                            for f in workflow.overwrite_configfiles]
+        or ["snakemake --cores 2 results_page"],
+        code=CODE,
+    conda: "../envs/breastcore.yaml"
+    script: "../scripts/results_page.py"
