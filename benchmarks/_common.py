@@ -1,0 +1,138 @@
+"""Shared helpers of the benchmark scripts: timing medians, subprocess runs with a
+time cap and peak memory, table printing, PASS/MISS verdicts and the machine line.
+
+Every number a benchmark prints comes from these helpers, so that the tables in
+``docs/benchmarks.md`` can be pasted from the output unchanged.
+"""
+
+from __future__ import annotations
+
+import datetime
+import json
+import os
+import platform
+import resource
+import statistics
+import subprocess
+import sys
+import textwrap
+import time
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+RESULTS = ROOT / "benchmarks" / "results"
+
+
+def machine_line() -> str:
+    """One line naming the machine, the date and the library versions."""
+    cpu = platform.processor() or platform.machine()
+    try:
+        for line in Path("/proc/cpuinfo").read_text().splitlines():
+            if line.startswith("model name"):
+                cpu = line.split(":", 1)[1].strip()
+                break
+    except OSError:
+        pass
+    import scipy
+    load = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
+    return (f"{datetime.date.today().isoformat()}, {os.cpu_count()} cores ({cpu}), "
+            f"python {platform.python_version()}, numpy {np.__version__}, scipy {scipy.__version__}, "
+            f"load average at start {load:.2f}")
+
+
+def timed(fn, repeats: int):
+    """Run ``fn()`` ``repeats`` times; return (median seconds, all times, last result)."""
+    times, result = [], None
+    for _ in range(max(1, repeats)):
+        tic = time.perf_counter()
+        result = fn()
+        times.append(time.perf_counter() - tic)
+    return statistics.median(times), times, result
+
+
+def run_python(code: str, timeout: float | None = None, env: dict | None = None) -> dict:
+    """Run ``code`` in a fresh interpreter; it must print one JSON object as its last line.
+
+    Returns that object plus ``wall`` (s), ``timed_out`` (bool), ``returncode`` and
+    ``peak_rss_mb``: the child's own peak resident set size (``ru_maxrss`` read
+    with ``RUSAGE_CHILDREN`` after it was reaped; the child is the only one reaped
+    by this call, and a larger earlier child would show up in ``children_rss_mb``
+    only). On a time-out the child is killed and only the wall time is known.
+    """
+    before = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss
+    prelude = "import json, resource\n"
+    epilogue = ("\nimport sys as _s; _s.stdout.flush()\n"
+                "print(json.dumps({'_self_rss_kb': resource.getrusage(resource.RUSAGE_SELF).ru_maxrss}))\n")
+    tic = time.perf_counter()
+    try:
+        proc = subprocess.run([sys.executable, "-c", prelude + textwrap.dedent(code) + epilogue],
+                              capture_output=True, text=True, timeout=timeout, cwd=ROOT,
+                              env={**os.environ, **(env or {})})
+    except subprocess.TimeoutExpired:
+        return {"wall": time.perf_counter() - tic, "timed_out": True, "returncode": None}
+    wall = time.perf_counter() - tic
+    after = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss
+    lines = [line for line in proc.stdout.splitlines() if line.startswith("{")]
+    out = {}
+    for line in lines:
+        out.update(json.loads(line))
+    out.update(wall=wall, timed_out=False, returncode=proc.returncode,
+               peak_rss_mb=out.pop("_self_rss_kb", float("nan")) / 1024.0,
+               children_rss_mb=max(before, after) / 1024.0)
+    if proc.returncode != 0:
+        out["stderr"] = proc.stderr[-2000:]
+    return out
+
+
+def fit_exponent(nodes, times) -> float:
+    """Least-squares slope of ``log(time)`` against ``log(nodes)``."""
+    x, y = np.log(np.asarray(nodes, float)), np.log(np.asarray(times, float))
+    ok = np.isfinite(x) & np.isfinite(y)
+    if ok.sum() < 2:
+        return float("nan")
+    return float(np.polyfit(x[ok], y[ok], 1)[0])
+
+
+def verdict(ok: bool) -> str:
+    return "PASS" if ok else "MISS"
+
+
+def fmt(value, digits=3) -> str:
+    """Compact number formatting for tables (``—`` for missing)."""
+    if value is None or (isinstance(value, float) and not np.isfinite(value)):
+        return "—"
+    if isinstance(value, str):
+        return value
+    if isinstance(value, (int, np.integer)):
+        return str(int(value))
+    if value == 0:
+        return "0"
+    if abs(value) >= 1e4 or abs(value) < 1e-3:
+        return f"{value:.{digits - 1}e}"
+    return f"{value:.{digits}g}"
+
+
+def print_table(headers, rows, title: str | None = None) -> str:
+    """Print a Markdown table (and return its text)."""
+    cells = [[fmt(c) for c in row] for row in rows]
+    widths = [max(len(str(h)), *(len(r[i]) for r in cells)) if cells else len(str(h))
+              for i, h in enumerate(headers)]
+    lines = []
+    if title:
+        lines += [f"### {title}", ""]
+    lines.append("| " + " | ".join(str(h).ljust(w) for h, w in zip(headers, widths)) + " |")
+    lines.append("|" + "|".join("-" * (w + 2) for w in widths) + "|")
+    for r in cells:
+        lines.append("| " + " | ".join(c.ljust(w) for c, w in zip(r, widths)) + " |")
+    text = "\n".join(lines)
+    print(text + "\n", flush=True)
+    return text
+
+
+def header(name: str, argv=None) -> None:
+    """Print the command line and the machine line at the top of a benchmark's output."""
+    argv = sys.argv if argv is None else argv
+    print(f"# {name}\n\ncommand: `{' '.join(['python'] + [os.path.relpath(argv[0], ROOT)] + argv[1:])}`  \n"
+          f"machine: {machine_line()}\n", flush=True)

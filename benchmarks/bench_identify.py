@@ -1,0 +1,145 @@
+"""Identification benchmarks (issue #3): run times against the paper, and the Jacobian's cost.
+
+Usage::
+
+    python benchmarks/bench_identify.py times    [--levels coarse,ultra-thin] [--paper-iterations 10]
+    python benchmarks/bench_identify.py jacobian [--levels coarse,ultra-thin]
+    python benchmarks/bench_identify.py all
+
+``times``: inverse-crime data (truth on the identification level), three fixed
+starts 30 % off (``_ident.STARTS_30``), one run each; the median is reported.
+``lm``+``implicit`` with Newton forward solves, against the paper's method
+(non-linear CG forward solves, forward-difference Jacobian, Gauss–Newton), which
+is capped: coarse only and ``--paper-iterations`` (default 10) iterations.
+``jacobian``: one implicit Jacobian against one forward solve of the three postures.
+"""
+
+from __future__ import annotations
+
+import argparse
+import contextlib
+import json
+import statistics
+import sys
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+
+from benchmarks._common import RESULTS, header, print_table, run_python, timed, verdict  # noqa: E402
+from benchmarks._ident import (PAPER_TIME, STARTS_30, TRUTH, child_code, forward_model,  # noqa: E402
+                               initial_trust_radius, measurement_model, options, run, truth_measurements)
+
+TARGET_TIME = {"coarse": 3.0, "ultra-thin": 30.0}        # s, issue #3
+
+
+def save(name, data):
+    RESULTS.mkdir(parents=True, exist_ok=True)
+    (RESULTS / f"identification_{name}.json").write_text(json.dumps(data, indent=1))
+
+
+def bench_times(levels=("coarse", "ultra-thin"), paper_iterations=10, paper_timeout=900.0, fix_radius=None):
+    out = {}
+    summary = []
+    for level in levels:
+        forward_model(level)                                   # mesh outside the timings
+        target = truth_measurements(level)
+        variants = [("lm+implicit", contextlib.nullcontext)]
+        if fix_radius:
+            variants.append((f"lm+implicit, initial trust radius {fix_radius} (proposed fix)",
+                             lambda: initial_trust_radius(fix_radius)))
+        for label, patch in variants:
+            runs = []
+            for factors in STARTS_30:
+                with patch():
+                    runs.append(run(level, target, TRUTH * np.array(factors), options("lm", "implicit")))
+                print(f"{level} {label} start {factors}: {runs[-1]['time']:.3g} s, "
+                      f"max rel error {runs[-1]['max_rel_error']:.2g}", flush=True)
+            out[f"{level}/{label}"] = runs
+            med = statistics.median(r["time"] for r in runs)
+            summary.append([level, label, *[r["time"] for r in runs], med,
+                            max(r["max_rel_error"] for r in runs),
+                            statistics.median(r["iterations"] for r in runs),
+                            statistics.median(r["forward_solves"] for r in runs),
+                            TARGET_TIME.get(level), PAPER_TIME.get(level),
+                            verdict(med <= TARGET_TIME[level]) if level in TARGET_TIME else "—"])
+        if level == "coarse" and paper_iterations:
+            opts = options("gauss-newton", "fd", fd_step=1e-4, max_iterations=paper_iterations)
+            runs = []
+            for factors in STARTS_30:
+                r = run_python(child_code(level, target, TRUTH * np.array(factors), opts, solver="cg"),
+                               timeout=paper_timeout)
+                if r.get("timed_out"):
+                    r.update(time=r["wall"], max_rel_error=float("nan"), iterations=float("nan"),
+                             forward_solves=float("nan"))
+                runs.append(r)
+                print(f"{level} paper method start {factors}: {r['time']:.3g} s"
+                      + (" (timed out)" if r.get("timed_out") else f", final E {r['cost']:.3g}, "
+                         f"max rel error {r['max_rel_error']:.2g}"), flush=True)
+            out[f"{level}/paper"] = runs
+            med = statistics.median(r["time"] for r in runs)
+            summary.append([level, f"paper: cg solves + fd (1e-4) + gauss-newton, ≤ {paper_iterations} it.",
+                            *[r["time"] for r in runs], med, max(r["max_rel_error"] for r in runs),
+                            statistics.median(r["iterations"] for r in runs),
+                            statistics.median(r["forward_solves"] for r in runs), "—", PAPER_TIME.get(level), "—"])
+    print()
+    print_table(["level", "method", "run 1 s", "run 2 s", "run 3 s", "median s", "max rel error",
+                 "median iterations", "median posture solves", "target s", "paper s", "verdict"], summary,
+                title="Identification wall time, inverse-crime data, three fixed starts 30 % off")
+    lm = {row[0]: row[5] for row in summary if row[1] == "lm+implicit"}
+    for row in summary:
+        if row[1].startswith("paper"):
+            print(f"ratio paper method / lm+implicit on {row[0]}: {row[5] / lm[row[0]]:.3g} "
+                  f"(paper method capped at {paper_iterations} iterations)")
+    for level, t in lm.items():
+        if level in PAPER_TIME:
+            print(f"ratio paper's published time / ours on {level}: {PAPER_TIME[level] / t:.3g}")
+    print()
+    save("times", out)
+    return summary
+
+
+def bench_jacobian(levels=("coarse", "ultra-thin"), repeats=5, cold_repeats=3):
+    rows = []
+    for level in levels:
+        forward_model(level)
+        mm = measurement_model(level)
+        t_cold, _, sols = timed(lambda: measurement_model(level).solve(TRUTH), cold_repeats)
+        mm.remember(sols, TRUTH)
+        near = TRUTH * (1 + 1e-4)
+        t_warm, _, _ = timed(lambda: mm.solve(near, remember=False), repeats)
+        t_jac, _, _ = timed(lambda: mm.implicit_jacobian(TRUTH, sols), repeats)
+        t_fd, _, _ = timed(lambda: mm.fd_jacobian(TRUTH, sols, 1e-4), cold_repeats)
+        rows.append([level, len(mm.model.mesh.nodes), t_cold, t_warm, t_jac, t_fd, t_jac / t_cold, t_jac / t_warm,
+                     t_fd / t_jac, verdict(t_jac <= 3 * t_cold)])
+        print(f"{level}: done", flush=True)
+    print()
+    print_table(["level", "nodes", "cold solve s", "warm solve s", "implicit J s", "fd J s",
+                 "J / cold solve", "J / warm solve", "fd J / implicit J", "J ≤ 3 cold solves"], rows,
+                title="One Jacobian vs one forward solve of the three postures (medians; "
+                      f"{cold_repeats} cold solves, {repeats} warm solves and Jacobians, {cold_repeats} fd Jacobians)")
+    save("jacobian", rows)
+    return rows
+
+
+def main(argv=None):
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("bench", choices=("times", "jacobian", "all"))
+    parser.add_argument("--levels", default="coarse,ultra-thin")
+    parser.add_argument("--paper-iterations", type=int, default=10, help="cap of the paper's method (0: skip)")
+    parser.add_argument("--paper-timeout", type=float, default=900.0, help="s per run of the paper's method")
+    parser.add_argument("--fix-radius", type=float, default=None,
+                        help="also time LM with this initial trust radius (benchmark-only experiment)")
+    args = parser.parse_args(argv)
+    header("identification benchmarks", [sys.argv[0]] + (argv if argv is not None else sys.argv[1:]))
+    levels = tuple(args.levels.split(","))
+    if args.bench in ("jacobian", "all"):
+        bench_jacobian(levels)
+    if args.bench in ("times", "all"):
+        bench_times(levels, args.paper_iterations, args.paper_timeout, args.fix_radius)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
