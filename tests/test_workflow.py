@@ -185,3 +185,12 @@ def test_results_page_is_generated_from_scene_summaries(workdir):
     assert page.startswith("# Results") and "Machine:" in page
     assert "Scene `grid`: stability" in page and "Scene `syn`: parameter error" in page
     assert "0.08 | 0.39 | 0.42 | 0.89 | 0.27 | 2.77" in page          # the paper's Table 1 beside ours
+
+
+def test_report_is_self_contained_html_with_every_figure(workdir):
+    out = snakemake(workdir, "--report", "report.html")
+    assert out.returncode == 0, out.stderr[-2000:]
+    html = (workdir / "report.html").read_text(errors="replace")
+    for caption in ("posture", "Identification history", "Relative sensitivity", "Identified parameters",
+                    "Forward-solver diagnostics", "stability scene"):
+        assert caption.lower() in html.lower(), caption
