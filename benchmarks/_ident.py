@@ -93,10 +93,11 @@ def run(level: str, target, start, opts: IdentificationOptions, solver: str = "n
     tic = time.perf_counter()
     try:
         res = identify(mm, np.asarray(target, float), np.asarray(start, float), opts)
-    except Exception as err:  # noqa: BLE001 — a failed initial solve is a result too
+    except Exception as err:  # noqa: BLE001 — identify raising is a result too (recorded, not fatal)
         return dict(ok=False, success=False, error=repr(err), time=time.perf_counter() - tic,
-                    rel_error=[float("nan")] * 6, max_rel_error=float("nan"), iterations=0,
-                    forward_solves=mm.solves, failed_solves=0, cost=float("nan"), message="initial solve failed")
+                    rel_error=[float("nan")] * 6, max_rel_error=float("nan"), iterations=float("nan"),
+                    forward_solves=mm.solves, failed_solves=float("nan"), cost=float("nan"),
+                    message=f"identify raised {err!r}")
     wall = time.perf_counter() - tic
     rel = res.estimate / TRUTH - 1.0
     out = dict(ok=True, success=bool(res.success), message=res.message, time=wall,
@@ -111,16 +112,20 @@ def run(level: str, target, start, opts: IdentificationOptions, solver: str = "n
     return out
 
 
-def child(level, target, start, opts: dict, solver="newton") -> None:
+def child(level, target, start, opts: dict, solver="newton", fix_radius=None) -> None:
     """Entry point of a time-capped subprocess: print the outcome of :func:`run` as JSON."""
-    print(json.dumps(run(level, target, start, IdentificationOptions(**opts), solver)), flush=True)
+    import contextlib
+    with initial_trust_radius(fix_radius) if fix_radius else contextlib.nullcontext():
+        out = run(level, target, start, IdentificationOptions(**opts), solver)
+    print(json.dumps(out), flush=True)
 
 
-def child_code(level, target, start, opts: IdentificationOptions, solver="newton") -> str:
+def child_code(level, target, start, opts: IdentificationOptions, solver="newton", fix_radius=None) -> str:
     """Python source that runs :func:`child` (for ``_common.run_python``)."""
     kw = {k: getattr(opts, k) for k in opts.__dataclass_fields__}
     return (f"from benchmarks._ident import child\n"
-            f"child({level!r}, {np.asarray(target).tolist()!r}, {np.asarray(start).tolist()!r}, {kw!r}, {solver!r})\n")
+            f"child({level!r}, {np.asarray(target).tolist()!r}, {np.asarray(start).tolist()!r}, {kw!r}, "
+            f"{solver!r}, {fix_radius!r})\n")
 
 
 def pct(x) -> float:
