@@ -40,9 +40,18 @@ def snakemake(workdir, *args):
 
 
 def planned_jobs(workdir, config):
-    """(rule, output) of every job a dry run would execute for ``config``."""
-    (workdir / "config.yaml").write_text(yaml.safe_dump(config))
-    out = snakemake(workdir, "-n")
+    """(rule, output) of every job a dry run would execute for ``config``.
+
+    The module's workdir is shared, so the tiny config is put back afterwards: a later
+    test (the report, the results page) must see the outputs the fixture built.
+    """
+    config_file = workdir / "config.yaml"
+    original = config_file.read_text()
+    config_file.write_text(yaml.safe_dump(config))
+    try:
+        out = snakemake(workdir, "-n")
+    finally:
+        config_file.write_text(original)
     assert out.returncode == 0, out.stderr + out.stdout
     jobs, rule = [], None
     for line in out.stdout.splitlines():
