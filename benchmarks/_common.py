@@ -52,37 +52,61 @@ def timed(fn, repeats: int):
     return statistics.median(times), times, result
 
 
+def _peak_rss_mb(pid):
+    """Peak resident set size of a running process (``VmHWM`` in /proc), MB; NaN if unknown."""
+    try:
+        for line in Path(f"/proc/{pid}/status").read_text().splitlines():
+            if line.startswith("VmHWM:"):
+                return int(line.split()[1]) / 1024.0
+    except (OSError, ValueError, IndexError):
+        pass
+    return float("nan")
+
+
 def run_python(code: str, timeout: float | None = None, env: dict | None = None) -> dict:
     """Run ``code`` in a fresh interpreter; it must print one JSON object as its last line.
 
     Returns that object plus ``wall`` (s), ``timed_out`` (bool), ``returncode`` and
-    ``peak_rss_mb``: the child's own peak resident set size (``ru_maxrss`` read
-    with ``RUSAGE_CHILDREN`` after it was reaped; the child is the only one reaped
-    by this call, and a larger earlier child would show up in ``children_rss_mb``
-    only). On a time-out the child is killed and only the wall time is known.
+    ``peak_rss_mb``: the child's own peak resident set size, read by the child
+    itself (``RUSAGE_SELF``) when it finishes, or from ``/proc/PID/status``
+    (``VmHWM``) just before it is killed at the time cap. ``children_rss_mb`` is
+    ``RUSAGE_CHILDREN`` of this process after the child was reaped (the largest
+    child so far, a cross-check).
     """
-    before = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss
     prelude = "import json, resource\n"
     epilogue = ("\nimport sys as _s; _s.stdout.flush()\n"
                 "print(json.dumps({'_self_rss_kb': resource.getrusage(resource.RUSAGE_SELF).ru_maxrss}))\n")
     tic = time.perf_counter()
+    proc = subprocess.Popen([sys.executable, "-c", prelude + textwrap.dedent(code) + epilogue],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=ROOT,
+                            env={**os.environ, **(env or {})})
+    peak = float("nan")
     try:
-        proc = subprocess.run([sys.executable, "-c", prelude + textwrap.dedent(code) + epilogue],
-                              capture_output=True, text=True, timeout=timeout, cwd=ROOT,
-                              env={**os.environ, **(env or {})})
-    except subprocess.TimeoutExpired:
-        return {"wall": time.perf_counter() - tic, "timed_out": True, "returncode": None}
+        while True:
+            try:
+                stdout, stderr = proc.communicate(timeout=1.0)
+                break
+            except subprocess.TimeoutExpired:
+                peak = _peak_rss_mb(proc.pid)
+                if timeout is not None and time.perf_counter() - tic > timeout:
+                    proc.kill()
+                    proc.communicate()
+                    return {"wall": time.perf_counter() - tic, "timed_out": True, "returncode": None,
+                            "peak_rss_mb": peak}
+    except BaseException:
+        proc.kill()
+        raise
     wall = time.perf_counter() - tic
-    after = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss
-    lines = [line for line in proc.stdout.splitlines() if line.startswith("{")]
+    children = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss
     out = {}
-    for line in lines:
-        out.update(json.loads(line))
+    for line in stdout.splitlines():
+        if line.startswith("{"):
+            out.update(json.loads(line))
     out.update(wall=wall, timed_out=False, returncode=proc.returncode,
-               peak_rss_mb=out.pop("_self_rss_kb", float("nan")) / 1024.0,
-               children_rss_mb=max(before, after) / 1024.0)
+               peak_rss_mb=out.pop("_self_rss_kb", float("nan") if peak != peak else peak * 1024) / 1024.0,
+               children_rss_mb=children / 1024.0)
     if proc.returncode != 0:
-        out["stderr"] = proc.stderr[-2000:]
+        out["stderr"] = stderr[-2000:]
     return out
 
 

@@ -83,15 +83,16 @@ def study_crime(n=20, seed=1, gn_iterations=25, fd_step=1e-4, tol=1e-4):
     return out
 
 
-def study_mesh(levels=LEVELS, timeout=600.0, fix_radius=FIX_RADIUS):
+def study_mesh(levels=LEVELS, timeout=600.0, fix_radius=FIX_RADIUS, fix_levels=("coarse",)):
     """Task 2: truth on the reference level meshed by gmsh at the true (R, H); identify on coarser levels."""
     target = truth_measurements("reference", direct_gmsh=True)
     print("truth: cold Newton solve on mesh_cap(R̄, H̄, LEVEL_MESH_SIZE['reference']); start: Λ̄ × "
           f"{np.round(START_30 / TRUTH, 3).tolist()}\n")
     rows = [["paper (Table 1, coarse, 25 it.)", *PAPER_TABLE1_COARSE, "—", "—", "—", "—", "—"]]
     out = {"target": target.tolist(), "start": START_30.tolist(), "levels": {}}
-    variants = [("ours", None)] + ([(f"ours, trust radius {fix_radius}", fix_radius)] if fix_radius else [])
     for level in levels:
+        variants = [("ours", None)] + ([(f"ours, trust radius {fix_radius}", fix_radius)]
+                                       if fix_radius and level in fix_levels else [])
         for label, radius in variants:
             r = run_python(child_code(level, target, START_30, options("lm", "implicit"), fix_radius=radius),
                            timeout=timeout)
@@ -106,6 +107,7 @@ def study_mesh(levels=LEVELS, timeout=600.0, fix_radius=FIX_RADIUS):
             print(f"{name}: {r['time']:.3g} s, max |error| {pct(r['max_rel_error']):.3g} %", flush=True)
             rows.append([name, *[pct(abs(e)) for e in r["rel_error"]], r["cost"], r["iterations"],
                          r["time"], r["forward_solves"], "converged" if r["success"] else r["message"]])
+            save("mesh", out)
     print()
     print_table(["", *[f"{p} %" for p in NAMES], "final E", "iterations", "time s", "posture solves", "status"],
                 rows, title="No inverse crime: |parameter error| % by identification level (truth: reference, "
@@ -124,7 +126,7 @@ def study_misfit(levels=LEVELS):
         rows.append([level, float(np.sum(rel**2)), pct(np.abs(rel).max()),
                      f"{PAPER_POSTURES_NAMES[worst[0]]} {QUANTITIES[worst[1]]}",
                      pct(np.sqrt(np.mean(rel**2)))])
-    print_table(["level", "E(Λ̄)", "max |M/M̄ − 1| %", "where", "rms %"], rows,
+    print_table(["level", "E(Λ̄)", "max abs(M/M̄ − 1) %", "where", "rms %"], rows,
                 title="Discretisation misfit at the true Λ̄: level vs reference truth (gmsh at true R, H)")
     return rows
 
@@ -186,6 +188,8 @@ def main(argv=None):
     parser.add_argument("--seed", type=int, default=None)
     parser.add_argument("--levels", default=",".join(LEVELS))
     parser.add_argument("--timeout", type=float, default=600.0, help="per level, s (mesh study)")
+    parser.add_argument("--fix-levels", default="coarse",
+                        help="mesh study: levels on which the proposed trust-radius fix is also run")
     parser.add_argument("--stock", action="store_true",
                         help="mesh and noise studies: the library's LM only, without the proposed trust-radius fix")
     args = parser.parse_args(argv)
@@ -194,7 +198,8 @@ def main(argv=None):
     if args.study in ("crime", "all"):
         study_crime(n=args.n or 20, seed=1 if args.seed is None else args.seed)
     if args.study in ("mesh", "all"):
-        study_mesh(tuple(args.levels.split(",")), args.timeout, None if args.stock else FIX_RADIUS)
+        study_mesh(tuple(args.levels.split(",")), args.timeout, None if args.stock else FIX_RADIUS,
+                   tuple(args.fix_levels.split(",")))
     if args.study in ("misfit", "all"):
         study_misfit(tuple(args.levels.split(",")))
     if args.study in ("noise", "all"):

@@ -7,6 +7,10 @@ unconverged return, never another exception. The fast test runs the paper's Λ̄
 with one factor changed at a time (42 cases); the slow one runs the
 ``bench_stability.py --quick`` sample (185 cases) in worker processes with a time
 cap. The full grid is ``python benchmarks/bench_stability.py``.
+
+Also here: the robustness and speed measures of the solver (shared PARDISO
+analysis, parallel postures, picklable errors, warm starts rescaled onto a moved
+fold) keep results correct.
 """
 
 import sys
@@ -62,3 +66,60 @@ def test_sampled_grid_in_worker_processes():
     rows = grid.run_all(grid.sampled_grid(150), processes=2, timeout=300, progress=False)
     counts = _check(rows)
     assert counts["converged"] >= 0.95 * len(rows)
+
+
+def test_factorisations_sharing_a_pattern_stay_correct():
+    """The PARDISO handle of a pattern holds one numeric factor; an older factor refactorises."""
+    import numpy as np
+    from breastcore.postures import parse_posture
+    from breastcore.solver import Factorization
+    model = grid._model("coarse")
+    params = grid.parameters(grid.PAPER)
+    problem = model.problem(params, parse_posture("bent45"))
+    z0 = problem.free(problem.reference)
+    K1 = problem.hessian(z0)
+    K2 = problem.hessian(z0 + 1e-4 * np.sin(np.arange(z0.size)))
+    b = np.cos(np.arange(z0.size))
+    f1 = Factorization(K1, problem.pattern)
+    f2 = Factorization(K2, problem.pattern)                  # takes the shared handle
+    for K, f in ((K1, f1), (K2, f2), (K1, f1)):
+        x = f.solve(b)
+        assert np.linalg.norm(K @ x - b) <= 1e-9 * np.linalg.norm(b)
+    private = Factorization(K1)
+    assert np.allclose(private.solve(b), f1.solve(b), rtol=1e-10, atol=0)
+
+
+def test_parallel_postures_give_identical_results():
+    import numpy as np
+    from breastcore.forward import ForwardModel
+    from breastcore.mesh import mesh_level
+    from breastcore.parameters import Parameters
+    from breastcore.postures import paper_postures
+    mesh = mesh_level("coarse")
+    serial = ForwardModel(mesh).solve_postures(Parameters(), paper_postures())
+    parallel = ForwardModel(mesh).solve_postures(Parameters(), paper_postures(), processes=2)
+    for a, b in zip(serial, parallel):
+        assert a.posture == b.posture and a.iterations == b.iterations
+        assert np.array_equal(a.position, b.position)
+
+
+def test_solve_error_survives_pickling():
+    import pickle
+    from breastcore.forward import SolveError
+    err = SolveError("continuation stalled", iterations=3, gradient_norm=1.0, tolerance=1e-9, min_det_F=0.5,
+                     load_factor=0.25, smoothing=1e-4, posture="fours")
+    back = pickle.loads(pickle.dumps(err))
+    assert str(back) == str(err) and back.load_factor == 0.25 and back.posture == "fours"
+
+
+def test_warm_start_after_changing_all_six_parameters_is_short():
+    """The start is rescaled onto the new fold (R, H move it): a few Newton steps, one continuation step."""
+    from breastcore.parameters import Parameters
+    from breastcore.postures import paper_postures
+    model = grid._model("coarse")
+    params = Parameters()
+    changed = params.with_identified([v * 1.01 for v in params.identified()])
+    for posture in paper_postures():
+        start = model.solve(params, posture).position
+        warm = model.solve(changed, posture, start=start)
+        assert warm.continuation_steps == 1 and warm.iterations <= 6, (posture.name, warm.iterations)
