@@ -23,6 +23,7 @@ from .geometry import CapMap
 from .mesh import CapMesh, refold
 from .parameters import Parameters
 from .postures import Posture
+from .saddle import escape_saddle
 from .solver import Factorization, newton
 
 log = logging.getLogger(__name__)
@@ -131,6 +132,15 @@ class PostureSolution:
     wall_time: float
     extra: dict = field(default_factory=dict)
 
+    @property
+    def negative_eigenvalues(self) -> int:
+        """Negative eigenvalues of the exact Hessian at the solution (``-1``: unknown).
+
+        Zero at a stable equilibrium (a local minimum of ``J_h``); a saddle found by
+        Newton is left by :func:`~breastcore.saddle.escape_saddle` before returning.
+        """
+        return int(self.extra.get("negative_pivots", -1))
+
 
 class EquilibriumProblem:
     """``J_h`` on the free dofs for one parameter set, gravity vector and δ."""
@@ -151,6 +161,7 @@ class EquilibriumProblem:
         ])
         load = float(np.linalg.norm(self.gravity.load))
         self.energy_scale = max(load, 1e-30) * params.R
+        self.length_scale = params.R
 
     def full(self, z):
         """Node positions ``(N, 3)`` from the free dofs (fixed dofs at their reference values)."""
@@ -284,6 +295,8 @@ def _minimise(model, problem, z, tolerance):
         from .cg import conjugate_gradient
         return conjugate_gradient(problem, z, tolerance, model.options.cg_max_iterations)
     result = newton(problem, z, tolerance, model.options.max_iterations)
+    if result.success and result.negative_pivots:                  # an unstable equilibrium: leave it
+        return escape_saddle(problem, result, model.options.max_iterations)
     iterations = result.iterations
     for _ in range(model.options.max_extensions):                  # still going downhill: keep going
         if result.success or result.message != "iteration limit":

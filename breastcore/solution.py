@@ -21,6 +21,8 @@ DIAGNOSTICS = {
     "energy": ("J", "discrete energy J_h at the solution"),
     "min_det_F": ("1", "smallest det F over the tetrahedra"),
     "max_stretch": ("1", "largest principal stretch over the tetrahedra"),
+    "negative_eigenvalues": ("1", "negative eigenvalues of the exact Hessian at the solution "
+                                  "(0: a stable minimum; -1: not known, no PARDISO inertia)"),
     "wall_time": ("s", "wall-clock time of the solve"),
 }
 

@@ -319,7 +319,7 @@ def _line_search(problem, z, d, energy, g, g_norm, min_step=2.0**-30, expand=Fal
     return None
 
 
-def newton(problem, z0, tolerance, max_iterations=50):
+def newton(problem, z0, tolerance, max_iterations=50, avoid_saddles=False):
     """Minimise ``problem`` from ``z0`` until the gradient norm is at most ``tolerance``.
 
     Parameters
@@ -334,6 +334,13 @@ def newton(problem, z0, tolerance, max_iterations=50):
     tolerance : float
         Stopping tolerance on the Euclidean norm of the gradient, N.
     max_iterations : int
+    avoid_saddles : bool
+        If True, an exact Hessian with negative pivots (indefinite, by PARDISO's
+        inertia) is not used: the step comes from the projected Hessian instead,
+        whose directions lead downhill to a minimum rather than to the nearest
+        stationary point. Used after a saddle was detected (see
+        :func:`breastcore.saddle.escape_saddle`); without inertia (SuperLU) it
+        has no effect.
 
     Returns
     -------
@@ -370,6 +377,8 @@ def newton(problem, z0, tolerance, max_iterations=50):
             factor, d = _factor_solve(K, g, pattern)
             if mode == "exact":
                 inertia = None if factor is None else factor.negative_pivots
+                if avoid_saddles and inertia:
+                    continue
             if d is None or _dot(g, d) >= -1e-12 * g_norm * _norm(d):
                 continue
             accepted = _line_search(problem, z, d, energy, g, g_norm, expand=(mode != "exact"))

@@ -1,0 +1,151 @@
+"""Leaving a saddle point: an equilibrium whose Hessian has negative eigenvalues.
+
+Newton's method with the exact Hessian converges to the nearest stationary
+point, which on refined meshes in the standing posture is sometimes a saddle
+(1-3 negative eigenvalues, reported by PARDISO's inertia): an unstable
+equilibrium, not the energy minimum the model defines. :func:`escape_saddle`
+moves off it along the directions of negative curvature and minimises again
+with steps that never aim at a saddle.
+"""
+
+from __future__ import annotations
+
+import logging
+
+import numpy as np
+import scipy.sparse as sp
+import scipy.sparse.linalg as spla
+
+from .solver import Factorization, newton
+
+log = logging.getLogger(__name__)
+
+#: The first trial move off a saddle, as a fraction of the problem's length scale (R).
+START_FRACTION = 1e-2
+
+#: Matrices up to this size are decomposed densely.
+DENSE_SIZE = 200
+
+
+def negative_curvature_directions(K, count):
+    """Unit eigenvectors of the ``count`` most negative eigenvalues of ``K``.
+
+    Parameters
+    ----------
+    K : (n, n) sparse symmetric matrix
+    count : int
+        The number of negative eigenvalues (the inertia), ≥ 1.
+
+    Returns
+    -------
+    eigenvalues : (m,) array, N/m
+        The negative eigenvalues found (m ≤ ``count``; empty without inertia).
+    vectors : (n, m) array
+
+    Notes
+    -----
+    The negative eigenvalues need not be the ones nearest zero (a saddle of this
+    energy can have κ = -3 N/m below positive ones of 0.03 N/m). By Sylvester's
+    law of inertia, the negative pivots of ``K - σI`` count the eigenvalues below
+    σ; σ = -d 10⁻ʲ (``d`` the largest diagonal entry, j = 0 … 12) is lowered
+    until no eigenvalue lies below it. Shift-invert Lanczos at that σ, which is
+    within a decade of the lowest eigenvalue, then converges to the lowest ones.
+    """
+    n = K.shape[0]
+    if n <= DENSE_SIZE:
+        values, vectors = np.linalg.eigh(K.toarray())
+        negative = values < 0.0
+        return values[negative][:count], vectors[:, negative][:, :count]
+    identity = sp.identity(n, format="csr")
+    scale = float(abs(K.diagonal()).max())
+    sigma = None
+    for j in range(12, -1, -1):                    # from just below zero downwards
+        trial = -scale * 10.0 ** (-j)
+        below = Factorization(K - trial * identity).negative_pivots
+        if below is None:                          # no inertia (SuperLU): cannot bracket
+            return np.empty(0), np.empty((n, 0))
+        if below == 0:
+            sigma = trial
+            break
+    if sigma is None:
+        return np.empty(0), np.empty((n, 0))
+    factor = Factorization(K - sigma * identity)
+    inverse = spla.LinearOperator((n, n), matvec=factor.solve, dtype=float)
+    k = min(count, n - 2)
+    values, vectors = spla.eigsh(K, k=k, sigma=sigma, which="LM", OPinv=inverse, tol=1e-8)
+    negative = values < 0.0
+    return values[negative], vectors[:, negative]
+
+
+def escape_saddle(problem, result, max_iterations=100, max_rounds=3):
+    """Minimise again from a saddle ``result`` of :func:`~breastcore.solver.newton`.
+
+    Parameters
+    ----------
+    problem : EquilibriumProblem-like
+        ``value``, ``gradient``, ``hessian`` and ``pattern`` as for ``newton``.
+    result : NewtonResult
+        A converged solve with ``negative_pivots > 0``.
+    max_iterations : int
+        Newton iterations per round.
+    max_rounds : int
+        Perturb-and-minimise rounds before giving up (the last result is then
+        returned with its ``negative_pivots`` still > 0, so callers can tell).
+
+    Returns
+    -------
+    NewtonResult
+        Its ``iterations`` include every round's; ``negative_pivots`` is the
+        inertia of the exact Hessian at the returned point.
+
+    Notes
+    -----
+    At a saddle x* with ``K v = κ v``, κ < 0, the energy along ``x* + α v`` is
+    ``J(x*) + ½ κ α² + O(α³)``. The step ``α`` (either sign) is the largest of
+    ``α₀ 2⁻ᵏ`` with an admissible state and a lower energy, ``α₀`` being the
+    first trial step. Newton then runs with
+    ``avoid_saddles`` so that no step aims back at the saddle.
+    ``α₀`` is :data:`START_FRACTION` × ``problem.length_scale`` (the cap radius R).
+    """
+    pattern = getattr(problem, "pattern", None)
+    iterations = result.iterations
+    length = START_FRACTION * problem.length_scale
+    for _ in range(max_rounds):
+        inertia = result.negative_pivots
+        if not inertia or not result.success:
+            break
+        K = problem.hessian(result.x)
+        values, vectors = negative_curvature_directions(K, inertia)
+        if values.size == 0:
+            log.info("saddle test: no negative eigenvalue found near zero (inertia %d)", inertia)
+            break
+        z, energy = result.x, result.energy
+        moved = None
+        alpha = length
+        while alpha > 1e-9 * length and moved is None:
+            for v in vectors.T:
+                for sign in (1.0, -1.0):
+                    trial = z + sign * alpha * v
+                    e = problem.value(trial)
+                    if np.isfinite(e) and e < energy:
+                        moved = trial
+                        break
+                if moved is not None:
+                    break
+            alpha *= 0.5
+        if moved is None:
+            log.info("saddle escape: no admissible lower-energy point along %d directions", values.size)
+            break
+        log.info("saddle (κ_min = %.3e N/m, inertia %d): moved %.3e m, minimising again", values.min(), inertia,
+                 2.0 * alpha)
+        result = newton(problem, moved, result.tolerance, max_iterations, avoid_saddles=True)
+        iterations += result.iterations
+        if result.success:
+            final = Factorization(problem.hessian(result.x), pattern).negative_pivots
+            result = _with(result, negative_pivots=final)
+    return _with(result, iterations=iterations)
+
+
+def _with(result, **changes):
+    import dataclasses
+    return dataclasses.replace(result, **changes)

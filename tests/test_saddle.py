@@ -1,0 +1,76 @@
+"""Saddle points: detection by the Hessian's inertia and the escape to a minimum."""
+
+import numpy as np
+import pytest
+import scipy.linalg as sl
+import scipy.sparse as sp
+
+from breastcore import solver
+from breastcore.saddle import escape_saddle, negative_curvature_directions
+
+pytestmark = pytest.mark.skipif(solver._pardiso is None, reason="the inertia needs MKL PARDISO")
+
+
+class DoubleWell:
+    """E(x, y) = x² − y² + y⁴: a saddle at 0, minima at (0, ±1/√2) with E = −1/4."""
+
+    energy_scale = 1.0
+    length_scale = 1.0
+    pattern = None
+
+    def value(self, z):
+        x, y = z
+        return x * x - y * y + y ** 4
+
+    def gradient(self, z):
+        x, y = z
+        return np.array([2 * x, -2 * y + 4 * y ** 3])
+
+    def hessian(self, z, project=False):
+        H = np.diag([2.0, -2.0 + 12 * z[1] ** 2])
+        if project:
+            H = np.maximum(H, 0.0)
+        return sp.csr_matrix(H)
+
+
+def test_escape_from_an_analytic_saddle_reaches_a_minimum():
+    problem = DoubleWell()
+    at_saddle = solver.newton(problem, np.array([0.3, 0.0]), 1e-12)
+    assert at_saddle.success and np.allclose(at_saddle.x, 0.0) and at_saddle.negative_pivots == 1
+    result = escape_saddle(problem, at_saddle)
+    assert result.success and result.negative_pivots == 0
+    assert abs(abs(result.x[1]) - 2 ** -0.5) < 1e-10 and abs(result.x[0]) < 1e-10
+    assert result.energy == pytest.approx(-0.25, abs=1e-14)
+
+
+def test_negative_curvature_directions_match_dense_eigenpairs():
+    rng = np.random.default_rng(3)
+    n = 400
+    A = sp.random(n, n, density=0.08, random_state=rng)
+    K = (A + A.T + sp.diags(np.linspace(0.02, 300.0, n))).tocsr()
+    K = K - 1.5 * sp.identity(n, format="csr")                  # a few eigenvalues below zero
+    dense_values, dense_vectors = sl.eigh(K.toarray())
+    count = int(np.sum(dense_values < 0))
+    assert count >= 1
+    values, vectors = negative_curvature_directions(K, count)
+    assert np.allclose(np.sort(values), dense_values[:count], rtol=1e-8, atol=1e-10)
+    for value, v in zip(values, vectors.T):
+        assert np.linalg.norm(K @ v - value * v) <= 1e-7 * abs(dense_values).max()
+
+
+def test_refined_mesh_solve_returns_a_stable_minimum():
+    """thin, bent45: plain Newton ends on a saddle (κ ≈ −3 N/m); the solve must not."""
+    from breastcore.forward import ForwardModel
+    from breastcore.mesh import mesh_level
+    from breastcore.parameters import Parameters
+    from breastcore.postures import parse_posture
+    model = ForwardModel(mesh_level("thin"))
+    params, posture = Parameters(), parse_posture("bent45")
+    solution = model.solve(params, posture)
+    problem = model.problem(params, posture)
+    z = problem.free(solution.position)
+    plain = solver.newton(problem, z, solution.tolerance)        # independent check of the inertia
+    assert plain.success and plain.iterations == 0
+    inertia = solver.Factorization(problem.hessian(z)).negative_pivots
+    assert inertia == 0 and solution.negative_eigenvalues == 0
+    assert np.linalg.norm(problem.gradient(z)) <= solution.tolerance
