@@ -112,65 +112,19 @@ def run(level: str, target, start, opts: IdentificationOptions, solver: str = "n
     return out
 
 
-def child(level, target, start, opts: dict, solver="newton", fix_radius=None) -> None:
+def child(level, target, start, opts: dict, solver="newton") -> None:
     """Entry point of a time-capped subprocess: print the outcome of :func:`run` as JSON."""
-    import contextlib
-    with initial_trust_radius(fix_radius) if fix_radius else contextlib.nullcontext():
-        out = run(level, target, start, IdentificationOptions(**opts), solver)
+    out = run(level, target, start, IdentificationOptions(**opts), solver)
     print(json.dumps(out), flush=True)
 
 
-def child_code(level, target, start, opts: IdentificationOptions, solver="newton", fix_radius=None) -> str:
+def child_code(level, target, start, opts: IdentificationOptions, solver="newton") -> str:
     """Python source that runs :func:`child` (for ``_common.run_python``)."""
     kw = {k: getattr(opts, k) for k in opts.__dataclass_fields__}
     return (f"from benchmarks._ident import child\n"
             f"child({level!r}, {np.asarray(target).tolist()!r}, {np.asarray(start).tolist()!r}, {kw!r}, "
-            f"{solver!r}, {fix_radius!r})\n")
+            f"{solver!r})\n")
 
 
 def pct(x) -> float:
     return 100.0 * float(x)
-
-
-class initial_trust_radius:
-    """Context manager: run ``identify``'s LM with an initial trust radius of ``radius`` (ln units).
-
-    A benchmark-only experiment, not a library change. ``identify`` calls
-    ``least_squares(fun, z0, x_scale=1.0, ...)`` in the variables
-    ``z = (ln R, logit(H/R), ln λ, …)`` in SI units; trf then starts with the trust
-    radius ``‖z0‖`` (≈ 15 at Λ̄, and unit-dependent), so the first trial steps can
-    scale moduli by e^±10. This wrapper solves the same problem in
-    ``d = (z − z0)/radius``, where trf's initial radius is ``‖d0‖ = 0 → 1``, i.e.
-    ``radius`` in z; nothing else changes (same tolerances in d up to the scale).
-    """
-
-    def __init__(self, radius: float):
-        self.radius = float(radius)
-
-    def __enter__(self):
-        import breastcore.identify as bi
-        self._module, self._original = bi, bi.least_squares
-        original, s = self._original, self.radius
-
-        def shifted(fun, x0, jac, callback=None, **kw):
-            shift = np.array(x0, float)
-
-            class _Point:
-                def __init__(self, x):
-                    self.x = x
-
-            def cb(intermediate_result):
-                callback(_Point(intermediate_result.x * s + shift))
-
-            out = original(lambda d: fun(d * s + shift), np.zeros_like(shift),
-                           jac=lambda d, *a: jac(d * s + shift) * s,
-                           callback=None if callback is None else cb, **kw)
-            out.x = out.x * s + shift
-            return out
-
-        bi.least_squares = shifted
-        return self
-
-    def __exit__(self, *exc):
-        self._module.least_squares = self._original
-        return False

@@ -29,7 +29,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from benchmarks._common import RESULTS, header, print_table, run_python, timed, verdict  # noqa: E402
 from benchmarks._ident import (PAPER_TIME, STARTS_30, TRUTH, child_code, forward_model,  # noqa: E402
-                               initial_trust_radius, measurement_model, options, run, truth_measurements)
+                               measurement_model, options, run, truth_measurements)
 
 TARGET_TIME = {"coarse": 3.0, "ultra-thin": 30.0}        # s, issue #3
 
@@ -39,16 +39,13 @@ def save(name, data):
     (RESULTS / f"identification_{name}.json").write_text(json.dumps(data, indent=1))
 
 
-def bench_times(levels=("coarse", "ultra-thin"), paper_iterations=10, paper_timeout=900.0, fix_radius=None):
+def bench_times(levels=("coarse", "ultra-thin"), paper_iterations=10, paper_timeout=900.0):
     out = {}
     summary = []
     for level in levels:
         forward_model(level)                                   # mesh outside the timings
         target = truth_measurements(level)
         variants = [("lm+implicit", contextlib.nullcontext)]
-        if fix_radius:
-            variants.append((f"lm+implicit, initial trust radius {fix_radius} (proposed fix)",
-                             lambda: initial_trust_radius(fix_radius)))
         for label, patch in variants:
             runs = []
             for factors in STARTS_30:
@@ -129,15 +126,13 @@ def main(argv=None):
     parser.add_argument("--levels", default="coarse,ultra-thin")
     parser.add_argument("--paper-iterations", type=int, default=10, help="cap of the paper's method (0: skip)")
     parser.add_argument("--paper-timeout", type=float, default=900.0, help="s per run of the paper's method")
-    parser.add_argument("--fix-radius", type=float, default=None,
-                        help="also time LM with this initial trust radius (benchmark-only experiment)")
     args = parser.parse_args(argv)
     header("identification benchmarks", [sys.argv[0]] + (argv if argv is not None else sys.argv[1:]))
     levels = tuple(args.levels.split(","))
     if args.bench in ("jacobian", "all"):
         bench_jacobian(levels)
     if args.bench in ("times", "all"):
-        bench_times(levels, args.paper_iterations, args.paper_timeout, args.fix_radius)
+        bench_times(levels, args.paper_iterations, args.paper_timeout)
     return 0
 
 

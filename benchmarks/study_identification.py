@@ -5,7 +5,7 @@ Usage::
     python benchmarks/study_identification.py crime [--n 20] [--seed 1]
     python benchmarks/study_identification.py mesh  [--levels coarse,...] [--timeout 600]
     python benchmarks/study_identification.py misfit [--levels coarse,...]
-    python benchmarks/study_identification.py noise [--n 50] [--seed 3] [--stock]
+    python benchmarks/study_identification.py noise [--n 50] [--seed 3]
     python benchmarks/study_identification.py all
 
 Every table is printed as Markdown; the raw outcomes go to
@@ -25,7 +25,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from benchmarks._common import RESULTS, header, print_table, run_python, verdict  # noqa: E402
 from benchmarks._ident import (LEVELS, NAMES, PAPER_ANNEX, PAPER_TABLE1_COARSE, TRUTH, child_code,  # noqa: E402
-                               forward_model, initial_trust_radius, options, pct, random_starts, run,
+                               forward_model, options, pct, random_starts, run,
                                truth_measurements)
 import contextlib  # noqa: E402
 
@@ -34,8 +34,6 @@ from breastcore.postures import PAPER_POSTURES  # noqa: E402
 
 PAPER_POSTURES_NAMES = tuple(PAPER_POSTURES)
 
-#: The proposed fix tried alongside the library as it is: LM's initial trust radius in ln units.
-FIX_RADIUS = 0.5
 
 START_30 = TRUTH * np.array([1.3, 0.7, 0.7, 1.3, 1.3, 0.7])
 
@@ -51,8 +49,6 @@ def study_crime(n=20, seed=1, gn_iterations=25, fd_step=1e-4, tol=1e-4):
     starts = random_starts(n, 0.6, seed)
     lm, gn = options("lm", "implicit"), options("gauss-newton", "fd", fd_step=fd_step, max_iterations=gn_iterations)
     methods = {"lm+implicit": (lm, contextlib.nullcontext),
-               f"lm+implicit, initial trust radius {FIX_RADIUS} (proposed fix)":
-                   (lm, lambda: initial_trust_radius(FIX_RADIUS)),
                "gauss-newton+fd": (gn, contextlib.nullcontext)}
     out = {}
     for label, (opts, patch) in methods.items():
@@ -74,7 +70,7 @@ def study_crime(n=20, seed=1, gn_iterations=25, fd_step=1e-4, tol=1e-4):
         print(f"{label}: recovered {n_ok}/{n} to ≤ {tol:g} relative in every parameter; "
               f"median time {np.median(times):.3g} s, total {np.sum(times):.3g} s\n")
         out[label] = dict(runs=runs, recovered=n_ok)
-    for label in list(out)[:2]:
+    for label in list(out)[:1]:
         ok = out[label]["recovered"]
         print(f"target ≥ {n - 1}/{n} recovered, {label}: {ok}/{n} {verdict(ok >= n - 1)}")
     print()
@@ -83,7 +79,7 @@ def study_crime(n=20, seed=1, gn_iterations=25, fd_step=1e-4, tol=1e-4):
     return out
 
 
-def study_mesh(levels=LEVELS, timeout=600.0, fix_radius=FIX_RADIUS, fix_levels=("coarse",)):
+def study_mesh(levels=LEVELS, timeout=600.0):
     """Task 2: truth on the reference level meshed by gmsh at the true (R, H); identify on coarser levels."""
     target = truth_measurements("reference", direct_gmsh=True)
     print("truth: cold Newton solve on mesh_cap(R̄, H̄, LEVEL_MESH_SIZE['reference']); start: Λ̄ × "
@@ -91,10 +87,9 @@ def study_mesh(levels=LEVELS, timeout=600.0, fix_radius=FIX_RADIUS, fix_levels=(
     rows = [["paper (Table 1, coarse, 25 it.)", *PAPER_TABLE1_COARSE, "—", "—", "—", "—", "—"]]
     out = {"target": target.tolist(), "start": START_30.tolist(), "levels": {}}
     for level in levels:
-        variants = [("ours", None)] + ([(f"ours, trust radius {fix_radius}", fix_radius)]
-                                       if fix_radius and level in fix_levels else [])
+        variants = [("ours", None)]
         for label, radius in variants:
-            r = run_python(child_code(level, target, START_30, options("lm", "implicit"), fix_radius=radius),
+            r = run_python(child_code(level, target, START_30, options("lm", "implicit")),
                            timeout=timeout)
             out["levels"][f"{level}/{label}"] = r
             name = f"{label}, {level}"
@@ -131,14 +126,12 @@ def study_misfit(levels=LEVELS):
     return rows
 
 
-def study_noise(n=50, seed=3, spread=0.5, noise=0.10, fix_radius=FIX_RADIUS):
+def study_noise(n=50, seed=3, spread=0.5, noise=0.10):
     """Task 3: coarse truth, uniform ±10 % relative noise on every measurement, ±50 % starts.
 
-    Runs LM with the proposed initial trust radius ``fix_radius`` (None: the library as it is,
-    which from ±50 % starts fails in about half the cases and can take 1000 s per case).
+    Runs the library's LM (initial trust radius 0.5, branch check) with the implicit Jacobian.
     """
-    patch = (lambda: initial_trust_radius(fix_radius)) if fix_radius else contextlib.nullcontext
-    print(f"LM: {'initial trust radius ' + str(fix_radius) + ' (proposed fix)' if fix_radius else 'library as is'}\n")
+    patch = contextlib.nullcontext
     target = truth_measurements("coarse")
     rng = np.random.default_rng(seed)
     starts = random_starts(n, spread, seed + 1000)
@@ -188,23 +181,17 @@ def main(argv=None):
     parser.add_argument("--seed", type=int, default=None)
     parser.add_argument("--levels", default=",".join(LEVELS))
     parser.add_argument("--timeout", type=float, default=600.0, help="per level, s (mesh study)")
-    parser.add_argument("--fix-levels", default="coarse",
-                        help="mesh study: levels on which the proposed trust-radius fix is also run")
-    parser.add_argument("--stock", action="store_true",
-                        help="mesh and noise studies: the library's LM only, without the proposed trust-radius fix")
     args = parser.parse_args(argv)
     header("identification study", [sys.argv[0]] + (argv if argv is not None else sys.argv[1:]))
     forward_model("coarse")
     if args.study in ("crime", "all"):
         study_crime(n=args.n or 20, seed=1 if args.seed is None else args.seed)
     if args.study in ("mesh", "all"):
-        study_mesh(tuple(args.levels.split(",")), args.timeout, None if args.stock else FIX_RADIUS,
-                   tuple(args.fix_levels.split(",")))
+        study_mesh(tuple(args.levels.split(",")), args.timeout)
     if args.study in ("misfit", "all"):
         study_misfit(tuple(args.levels.split(",")))
     if args.study in ("noise", "all"):
-        study_noise(n=args.n or 50, seed=3 if args.seed is None else args.seed,
-                    fix_radius=None if args.stock else FIX_RADIUS)
+        study_noise(n=args.n or 50, seed=3 if args.seed is None else args.seed)
     return 0
 
 

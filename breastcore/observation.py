@@ -52,10 +52,10 @@ class MeasurementModel:
     def params(self, values) -> Parameters:
         return self.base.with_identified(values)
 
-    def solve(self, values, remember=True):
-        """Equilibria of all postures at ``Λ = values`` (warm-started). Raises SolveError."""
+    def solve(self, values, remember=True, cold=False):
+        """Equilibria of all postures at ``Λ = values`` (warm-started unless ``cold``). Raises SolveError."""
         params = self.params(values)
-        near = self._start_values is not None and \
+        near = not cold and self._start_values is not None and \
             np.max(np.abs(np.asarray(values) / self._start_values - 1.0)) <= self.warm_radius
         solutions = {}
         for posture in self.postures:

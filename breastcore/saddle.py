@@ -23,6 +23,9 @@ log = logging.getLogger(__name__)
 #: The first trial move off a saddle, as a fraction of the problem's length scale (R).
 START_FRACTION = 1e-2
 
+#: Relative tolerance of the Lanczos eigenpairs (only a direction of descent is needed).
+EIGEN_TOL = 1e-4
+
 #: Matrices up to this size are decomposed densely.
 DENSE_SIZE = 200
 
@@ -47,9 +50,10 @@ def negative_curvature_directions(K, count):
     The negative eigenvalues need not be the ones nearest zero (a saddle of this
     energy can have κ = -3 N/m below positive ones of 0.03 N/m). By Sylvester's
     law of inertia, the negative pivots of ``K - σI`` count the eigenvalues below
-    σ; σ = -d 10⁻ʲ (``d`` the largest diagonal entry, j = 0 … 12) is lowered
-    until no eigenvalue lies below it. Shift-invert Lanczos at that σ, which is
-    within a decade of the lowest eigenvalue, then converges to the lowest ones.
+    σ; σ = -d 10⁻ʲ (``d`` the largest diagonal entry) is raised, j = 0 … 12,
+    while no eigenvalue lies below it. Shift-invert Lanczos at the last such σ,
+    within a decade of the lowest eigenvalue, then converges to the lowest ones
+    (to the relative tolerance :data:`EIGEN_TOL`).
     """
     n = K.shape[0]
     if n <= DENSE_SIZE:
@@ -58,21 +62,21 @@ def negative_curvature_directions(K, count):
         return values[negative][:count], vectors[:, negative][:, :count]
     identity = sp.identity(n, format="csr")
     scale = float(abs(K.diagonal()).max())
-    sigma = None
-    for j in range(12, -1, -1):                    # from just below zero downwards
+    sigma, factor = None, None
+    for j in range(13):                            # from -d up towards zero
         trial = -scale * 10.0 ** (-j)
-        below = Factorization(K - trial * identity).negative_pivots
-        if below is None:                          # no inertia (SuperLU): cannot bracket
+        shifted = Factorization(K - trial * identity)
+        if shifted.negative_pivots is None:        # no inertia (SuperLU): cannot bracket
             return np.empty(0), np.empty((n, 0))
-        if below == 0:
-            sigma = trial
+        if shifted.negative_pivots > 0:            # passed the lowest eigenvalue: the last σ brackets it
             break
+        sigma, factor = trial, shifted
     if sigma is None:
         return np.empty(0), np.empty((n, 0))
-    factor = Factorization(K - sigma * identity)
     inverse = spla.LinearOperator((n, n), matvec=factor.solve, dtype=float)
     k = min(count, n - 2)
-    values, vectors = spla.eigsh(K, k=k, sigma=sigma, which="LM", OPinv=inverse, tol=1e-8)
+    # A direction of negative curvature is all that is needed: a loose tolerance will do.
+    values, vectors = spla.eigsh(K, k=k, sigma=sigma, which="LM", OPinv=inverse, tol=EIGEN_TOL)
     negative = values < 0.0
     return values[negative], vectors[:, negative]
 

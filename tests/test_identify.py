@@ -50,6 +50,31 @@ def test_lm_recovers_truth_from_30_percent_off(problem):
     assert np.abs(result.estimate / TRUTH - 1).max() <= 1e-4
     assert result.cost[-1] < 1e-12 < result.cost[0]
     assert len(result.parameters) == len(result.cost) == len(result.wall_time)
+    # the estimate's shapes are those of the cold solve that defines M(Λ), not of another branch
+    cold = mm.measure(mm.solve(result.estimate, remember=False, cold=True))
+    assert np.abs(mm.measure(result.solutions) / cold - 1).max() <= 1e-6
+
+
+@pytest.mark.parametrize("start", [
+    [0.0595446, 0.0216535, 1304.22, 156.866, 6365.42, 2153.78],    # H 57 % low, λ 30 %, μ_s 35 % high
+    [0.0550004, 0.0347331, 907.26, 166.11, 3435.11, 1933.04],      # λ_s 57 % low
+])
+def test_lm_recovers_truth_from_starts_up_to_60_percent_off(problem, start):
+    """Two of the ±60 % starts on which LM with trf's own first radius (‖z₀‖ ≈ 15) failed."""
+    mm, _, target = problem
+    result = identify(mm, target, np.array(start))
+    assert result.success, result.message
+    assert np.abs(result.estimate / TRUTH - 1).max() <= 1e-4
+
+
+def test_initial_trust_radius_bounds_the_first_step(problem):
+    mm, _, target = problem
+    start = TRUTH * np.array([1.6, 0.5, 1.6, 0.4, 0.4, 1.6])
+    radius = 0.05
+    result = identify(mm, target, start, IdentificationOptions(initial_trust_radius=radius, max_iterations=1))
+    first = result.parameters[1] if len(result.parameters) > 1 else result.parameters[0]
+    step = to_unconstrained(first) - to_unconstrained(start)
+    assert 0 < np.linalg.norm(step) <= radius * (1 + 1e-9)
 
 
 def test_paper_gauss_newton_decreases_the_cost(problem):

@@ -40,6 +40,8 @@ def register(sub):
     p.add_argument("--max-iterations", type=int, default=50, help="iteration limit (default 50)")
     p.add_argument("--noise", type=float, default=0.10,
                    help="relative 1σ measurement noise of the uncertainty model (default 0.10)")
+    p.add_argument("--initial-trust-radius", type=float, default=0.5,
+                   help="LM: first trust-region radius in the log/logit parameters (default 0.5)")
     add_parameter_options(p)
     p.add_argument("--out", required=True, type=writable_path("--out"), metavar="ID.nc")
     p.set_defaults(run=run)
@@ -60,10 +62,14 @@ def run(args):
     initial = parse_initial(args.initial, base.identified())
     try:
         base = base.with_identified(initial)
-        options = IdentificationOptions(method=args.method, jacobian=args.jacobian, fd_step=args.fd_step,
-                                        cost_tol=args.cost_tol, max_iterations=args.max_iterations, noise=args.noise)
     except ValueError as err:
         raise UsageError(f"--initial: {err}") from None
+    try:
+        options = IdentificationOptions(method=args.method, jacobian=args.jacobian, fd_step=args.fd_step,
+                                        cost_tol=args.cost_tol, max_iterations=args.max_iterations, noise=args.noise,
+                                        initial_trust_radius=args.initial_trust_radius)
+    except ValueError as err:
+        raise UsageError(f"identification options: {err}") from None
     ds_m = open_dataset(args.measurements)
     target = target_from_dataset(ds_m)
     mesh, level, _ = mesh_from_args(args)
