@@ -11,8 +11,12 @@ from .parameters import IDENTIFIED, PARAMETER_INFO
 from .solution import DIAGNOSTICS
 
 
-def synthetic_summary(runs, paths, name, config_hash=None) -> xr.Dataset:
-    """One row per identification run: mesh, offset, errors, cost, iterations, time, success."""
+def synthetic_summary(runs, paths, name, config_hash=None, tables=()) -> xr.Dataset:
+    """One row per identification run: mesh, offset, errors, cost, iterations, time, success.
+
+    ``tables`` names the extra results-page tables of the scene (``levels``,
+    ``evolution``); it is stored as the attribute ``tables``.
+    """
     rows = [open_dataset(p) for p in paths]
     rel = np.array([ds["relative_error"].values for ds in rows])
     n = rows[0].sizes["posture"] * rows[0].sizes["quantity"]
@@ -35,7 +39,7 @@ def synthetic_summary(runs, paths, name, config_hash=None) -> xr.Dataset:
     coords = {"parameter": _var(("parameter",), np.array(IDENTIFIED), "1", "identified parameter"),
               "identification": _var(("run",), np.array(paths), "1", "identification dataset")}
     ds = xr.Dataset(data, coords=coords)
-    ds.attrs = provenance("scene", None, config_hash, scene=name, scene_kind="synthetic",
+    ds.attrs = provenance("scene", None, config_hash, scene=name, scene_kind="synthetic", tables=",".join(tables),
                           title=f"synthetic identification study {name}")
     return ds
 
@@ -89,17 +93,30 @@ def diagnostics_table(ds: xr.Dataset) -> pd.DataFrame:
     return pd.DataFrame(cols, index=pd.Index(ds["posture"].values, name="posture"))
 
 
-def stability_summary(paths, name, config_hash=None) -> xr.Dataset:
-    """All cases of a stability scene in one dataset, with the outcome counts."""
+def stability_summary(paths, name, config_hash=None, guesses=()) -> xr.Dataset:
+    """All cases of a stability scene in one dataset, with the outcome counts.
+
+    ``guesses``: datasets of the identifications from extreme guesses (dimension
+    ``guess``, one block per mesh level, with ``guess_mesh``).
+    """
     parts = [open_dataset(p) for p in paths]
     ds = xr.concat(parts, dim="case", data_vars="all", combine_attrs="override")
     ds["mesh"] = _var(("case",), np.concatenate([[p.attrs["mesh_level"]] * p.sizes["case"] for p in parts]), "1",
                       "mesh level")
+    extra = {}
+    if guesses:
+        runs = [open_dataset(p) for p in guesses]
+        g = xr.concat(runs, dim="guess", data_vars="all", combine_attrs="override")
+        g["guess_mesh"] = _var(("guess",), np.concatenate([[r.attrs["mesh_level"]] * r.sizes["guess"] for r in runs]),
+                               "1", "mesh level of the identification")
+        ds = xr.merge([ds, g], combine_attrs="drop_conflicts")
+        outcomes = g["guess_outcome"].values
+        extra["guess_outcome_counts"] = {o: int((outcomes == o).sum()) for o in dict.fromkeys(outcomes)}
     outcomes = ds["outcome"].values
     counts = {o: int((outcomes == o).sum()) for o in ("converged", "unverified", "nan", "solve_error", "crash")}
     ds.attrs = provenance("scene", None, config_hash, scene=name, scene_kind="stability", outcome_counts=counts,
                           convergence_rate=counts["converged"] / max(len(outcomes), 1),
-                          title=f"stability scene {name}")
+                          title=f"stability scene {name}", **extra)
     return ds
 
 

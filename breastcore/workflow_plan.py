@@ -59,7 +59,7 @@ class Plan:
         self.solver = config["solver"]
         self.report = config["report"]["enabled"]
         self.run_scenes = config.get("run_scenes") or list(config["scenes"])
-        self.jobs = {"mesh": {}, "solve": {}, "measure": {}, "identify": {}, "sensitivity": {}, "stability": {},
+        self.jobs = {"mesh": {}, "solve": {}, "measure": {}, "identify": {}, "sensitivity": {}, "stability": {}, "extreme": {},
                      "scene": {}}
         self.scenes = {}
         for name, scene in config["scenes"].items():
@@ -101,7 +101,7 @@ class Plan:
         runs = []
         for m in scene["methods"]:
             ident = {**scene["identification"], "method": m.get("method", "lm"),
-                     "jacobian": m.get("jacobian", "implicit"), "max_iterations": m.get("max_iterations", 50)}
+                     "jacobian": m.get("jacobian", "implicit"), "max_iterations": m.get("max_iterations", scene["identification"]["max_iterations"])}
             solver = {**self.solver, "method": m.get("solver", "newton")}
             for level in m.get("meshes", scene["meshes"]):
                 for offset in scene["offsets"]:
@@ -112,7 +112,8 @@ class Plan:
                                      "identification": path})
         sens = [self.sensitivity(r["identification"], scene["sensitivity"]) for r in runs[:1]
                 if scene["sensitivity"] != "none"]
-        return self._scene(name, "synthetic", {"runs": runs, "truth": truth, "sensitivity": sens})
+        return self._scene(name, "synthetic", {"runs": runs, "truth": truth, "sensitivity": sens,
+                                               "tables": list(scene.get("tables", []))})
 
     def _patient(self, name, scene):
         postures = {k: dict(v) for k, v in scene["postures"].items()}
@@ -139,7 +140,11 @@ class Plan:
                 if part:
                     chunks.append(self._add("stability", {"mesh": self.mesh(level), "level": level, "cases": part,
                                                           "constants": self.constants, "solver": self.solver}))
-        return self._scene(name, "stability", {"chunks": chunks})
+        guesses = [self._add("extreme", {"mesh": self.mesh(level), "level": level, "factors": scene["extreme_guesses"],
+                                         "identification": scene["identification"], "constants": self.constants,
+                                         "solver": self.solver})
+                   for level in scene["meshes"] if scene["extreme_guesses"]]
+        return self._scene(name, "stability", {"chunks": chunks, "guesses": guesses})
 
     def _scene(self, name, kind, spec):
         spec = {"kind": kind, **spec}
@@ -175,7 +180,7 @@ class Plan:
         if spec["kind"] == "patient":
             return [spec["identification"], *spec["sensitivity"]]
         if spec["kind"] == "stability":
-            return spec["chunks"]
+            return spec["chunks"] + spec.get("guesses", [])
         return [spec["solution"]]
 
     def shape_source(self, name):

@@ -21,7 +21,8 @@ TINY = {
                 "methods": [{"name": "lm", "max_iterations": 15},
                             {"name": "paper", "method": "gauss-newton", "jacobian": "fd", "max_iterations": 2}]},
         "grid": {"kind": "stability", "meshes": ["coarse"], "sample": 3, "chunks": 1,
-                 "grid": {"mu": [15.0, 1500.0], "delta": [1e-7], "posture": ["standing", "fours"]}},
+                 "grid": {"mu": [15.0, 1500.0], "delta": [1e-7], "posture": ["standing", "fours"]},
+                 "extreme_guesses": [4.0], "identification": {"max_iterations": 8}},
         "alice": {"kind": "patient", "mesh": "coarse", "identification": {"max_iterations": 15},
                   "postures": {"standing": {"volume": 660, "area": 344, "height": 110, "frontal_depth": 51,
                                             "back_depth": 45},
@@ -118,6 +119,8 @@ def test_scene_outputs_exist(workdir):
     grid = xr.open_dataset(scenes / "grid/summary.nc")
     assert grid.sizes["case"] == 3 and set(grid["outcome"].values) <= {"converged", "solve_error"}
     assert (scenes / "grid/stability_map.png").exists() and (scenes / "grid/stability.csv").exists()
+    assert grid.sizes["guess"] == 5 and set(grid["guess_outcome"].values) <= {
+        "recovered", "wrong_minimum", "not_converged", "solve_error"}        # never a crash
     assert not (scenes / "fwd/shape_fours.png").exists()            # not asked for: not computed
     assert not (scenes / "alice/sensitivity.png").exists()
 

@@ -22,3 +22,15 @@ rule stability:
         code=CODE,
     conda: "../envs/breastcore.yaml"
     script: "../scripts/stability.py"
+
+
+rule extreme_guesses:
+    input: mesh=lambda w: PLAN.jobs["extreme"][f"{RESULTS}/extreme/{w.key}.nc"]["mesh"]
+    output: f"{RESULTS}/extreme/{{key}}.nc"
+    log: f"{RESULTS}/logs/extreme/{{key}}.log"
+    benchmark: f"{RESULTS}/benchmarks/extreme/{{key}}.tsv"
+    params:
+        spec=job("extreme"),
+        code=CODE,
+    conda: "../envs/breastcore.yaml"
+    script: "../scripts/extreme_guesses.py"

@@ -10,9 +10,10 @@ def main(snakemake):
     spec, name = snakemake.params.spec, snakemake.params.scene
     with log_to(snakemake.log[0]):
         if spec["kind"] == "stability":
-            ds = stability_summary(spec["chunks"], name, spec_key(spec))
+            ds = stability_summary(spec["chunks"], name, spec_key(spec), guesses=spec.get("guesses", []))
         elif spec["kind"] == "synthetic":
-            ds = synthetic_summary(spec["runs"], [r["identification"] for r in spec["runs"]], name, spec_key(spec))
+            ds = synthetic_summary(spec["runs"], [r["identification"] for r in spec["runs"]], name, spec_key(spec),
+                                   tables=spec.get("tables", []))
         else:
             source = spec["identification"] if spec["kind"] == "patient" else spec["solution"]
             ds = solution_summary(source, name, spec["kind"], spec_key(spec))

@@ -1,0 +1,105 @@
+"""Identification from extreme initial guesses: part of the stability scene (issue #5).
+
+Each run starts from the paper's Λ̄ with moduli scaled by an extreme factor
+(×0.25 or ×4: each modulus alone, then all four together) and identifies on
+inverse-crime data (the same mesh, at Λ̄). A run never raises: it ends as
+``recovered`` (every parameter within :data:`RECOVERED_TOL`), ``wrong_minimum``
+(converged elsewhere), ``not_converged``, ``solve_error`` (the forward solve at
+the guess failed: the typed error) or ``crash`` (any other exception).
+"""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+import xarray as xr
+
+from .datasets import _var, provenance
+from .forward import SolveError
+from .identify import IdentificationOptions, identify
+from .parameters import IDENTIFIED, Parameters
+
+OUTCOMES = ("recovered", "wrong_minimum", "not_converged", "solve_error", "crash")
+MODULI = IDENTIFIED[2:]
+#: Largest |estimate/truth − 1| of a recovered run.
+RECOVERED_TOL = 1e-4
+
+
+def extreme_guesses(factors=(0.25, 4.0)):
+    """``[(label, (6,) multipliers of Λ̄)]``: each modulus alone, then all four, per factor."""
+    out = []
+    for f in factors:
+        for k, name in enumerate(MODULI):
+            scale = np.ones(len(IDENTIFIED))
+            scale[2 + k] = f
+            out.append((f"{name} x{f:g}", scale))
+        scale = np.ones(len(IDENTIFIED))
+        scale[2:] = f
+        out.append((f"all moduli x{f:g}", scale))
+    return out
+
+
+def run_guess(mm, target, truth, start, options=IdentificationOptions()):
+    """Identify from ``start``; returns ``(outcome, record, message)`` and never raises."""
+    tic = time.perf_counter()
+    record = {"iterations": np.nan, "cost": np.nan, "max_error": np.nan, "wall_time": np.nan}
+    try:
+        result = identify(mm, target, start, options)
+    except SolveError as err:
+        record["wall_time"] = time.perf_counter() - tic
+        return "solve_error", record, str(err)
+    except Exception as err:  # noqa: BLE001 — a crash is an outcome to record
+        record["wall_time"] = time.perf_counter() - tic
+        return "crash", record, f"{type(err).__name__}: {err}"
+    error = float(np.abs(result.estimate / truth - 1.0).max())
+    record.update(iterations=len(result.cost) - 1, cost=result.cost[-1], max_error=error,
+                  wall_time=time.perf_counter() - tic)
+    if not np.isfinite(error):
+        return "crash", record, "non-finite estimate"
+    if error <= RECOVERED_TOL:
+        return "recovered", record, result.message
+    return ("wrong_minimum" if result.success else "not_converged"), record, result.message
+
+
+def extreme_guess_dataset(labels, starts, outcomes, records, messages, level, config_hash=None) -> xr.Dataset:
+    units = {"iterations": ("1", "accepted identification iterations"), "cost": ("1", "final cost E"),
+             "max_error": ("1", "largest |estimate / truth − 1| over the six parameters"),
+             "wall_time": ("s", "wall time of the identification")}
+    data = {"guess_label": _var(("guess",), np.array(labels), "1", "which moduli were scaled, and by what"),
+            "guess": _var(("guess", "parameter"), np.array(starts), "m m Pa Pa Pa Pa", "initial guess"),
+            "guess_outcome": _var(("guess",), np.array(outcomes), "1", f"one of {', '.join(OUTCOMES)}"),
+            "guess_message": _var(("guess",), np.array(messages), "1", "stopping message or failure diagnostics")}
+    for name, (u, long_name) in units.items():
+        data["guess_" + name] = _var(("guess",), np.array([r[name] for r in records], float), u, long_name)
+    coords = {"parameter": _var(("parameter",), np.array(IDENTIFIED), "1", "identified parameter")}
+    counts = {o: int(sum(x == o for x in outcomes)) for o in OUTCOMES}
+    ds = xr.Dataset(data, coords=coords)
+    ds.attrs = provenance("stability", Parameters(), config_hash, mesh_level=level, guess_outcome_counts=counts,
+                          title=f"identification from extreme guesses on the {level} mesh")
+    return ds
+
+
+def extreme_dataset_inputs(spec, mesh, config_hash=None) -> xr.Dataset:
+    """Run every guess of a workflow job ``spec`` (``factors``, ``level``, ``constants``, ``solver``)."""
+    import logging
+
+    from .forward import ForwardModel, SolverOptions
+    from .observation import MeasurementModel
+    from .postures import paper_postures
+    log = logging.getLogger(__name__)
+    base = Parameters(**spec["constants"])
+    model = ForwardModel(mesh, SolverOptions(**spec["solver"]))
+    truth = np.array(base.identified())
+    mm = MeasurementModel(model, base, paper_postures())
+    target = mm.measure(mm.solve(truth, remember=False, cold=True))
+    labels, starts, outcomes, records, messages = [], [], [], [], []
+    for label, scale in extreme_guesses(spec["factors"]):
+        mm = MeasurementModel(model, base, paper_postures())   # no warm starts carried between runs
+        outcome, record, message = run_guess(mm, target, truth, truth * scale,
+                                             IdentificationOptions(**spec["identification"]))
+        log.info("guess %s: %s (%s)", label, outcome, message)
+        for item, value in ((labels, label), (starts, truth * scale), (outcomes, outcome), (records, record),
+                            (messages, message)):
+            item.append(value)
+    return extreme_guess_dataset(labels, starts, outcomes, records, messages, spec["level"], config_hash)

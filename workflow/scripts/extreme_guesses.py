@@ -1,0 +1,15 @@
+"""Snakemake script of the extreme_guesses rule: identification from ×0.25 and ×4 moduli."""
+
+from breastcore.logs import log_to
+from breastcore.pipeline import run_extreme_guesses
+from breastcore.workflow_plan import spec_key
+
+
+def main(snakemake):
+    spec = snakemake.params.spec
+    with log_to(snakemake.log[0]):
+        run_extreme_guesses(spec, snakemake.input.mesh, snakemake.output[0], spec_key(spec))
+
+
+if __name__ == "__main__":
+    main(snakemake)  # noqa: F821
