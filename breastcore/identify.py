@@ -174,10 +174,12 @@ def identify(mm, target, initial, options=IdentificationOptions(), weights=None)
 
 #: Largest relative difference between warm- and cold-started measurements at the estimate.
 BRANCH_TOL = 1e-6
+#: Restarts after a branch drift; the last one uses cold solves only.
+BRANCH_RESTARTS = 2
 
 
 def _check_branch(mm, target, sqrt_w, options, result, record, run):
-    """Re-solve the estimate cold; if warm starts had drifted to another branch, go on cold.
+    """Re-solve the estimate cold; if warm starts had drifted to another branch, go on from it.
 
     ``M(Λ)`` is defined by the cold solve (gravity continuation from the reference).
     The standing posture can have two stable equilibria. A chain of warm-started
@@ -186,29 +188,36 @@ def _check_branch(mm, target, sqrt_w, options, result, record, run):
     from 30 % off, it stopped with λ_s 0.6 % wrong and E = 1.4e-7, while cold solves
     give E = 1.7e-6 at that Λ. When the cold measurements at the estimate differ
     from the warm ones by more than :data:`BRANCH_TOL`, the same method continues
-    from the estimate with cold solves only (``warm_radius = 0``). The history
-    records the cold re-evaluation as an iteration at the same Λ.
+    from the estimate, re-anchored on the cold equilibria. It first runs with warm
+    starts again; after :data:`BRANCH_RESTARTS` − 1 such restarts it runs with cold
+    solves only (``warm_radius = 0``), which cannot drift. The history records each
+    cold re-evaluation as an iteration at the same Λ. A run that did not converge
+    is not continued (its iteration limit stands); only its drift is recorded.
     """
-    values = np.array(result.parameters[-1], float)
-    warm = result.solutions if result.solutions is not None else mm.solve(values, remember=False)
     saved = mm.warm_radius
-    mm.warm_radius = 0.0
     try:
-        try:
-            cold = mm.solve(values, remember=False, cold=True)
-        except (SolveError, ParameterError) as err:
-            log.warning("identify: the cold re-solve at the estimate failed (%s); branch not checked", err)
-            return
-        result.branch_drift = float(np.max(np.abs(mm.measure(warm) / mm.measure(cold) - 1.0)))
-        if result.branch_drift <= BRANCH_TOL:
-            return
-        log.warning("identify: warm starts drifted to another equilibrium branch (max |ΔM/M| = %.2e); "
-                    "continuing with cold solves", result.branch_drift)
-        result.branch_restarts += 1
-        mm.remember(cold, values)
-        result.solutions = cold
-        record(values, cold)
-        run(mm, target, sqrt_w, values, cold, options, result, record)
+        for attempt in range(BRANCH_RESTARTS):
+            values = np.array(result.parameters[-1], float)
+            warm = result.solutions if result.solutions is not None else mm.solve(values, remember=False)
+            try:
+                cold = mm.solve(values, remember=False, cold=True)
+            except (SolveError, ParameterError) as err:
+                log.warning("identify: the cold re-solve at the estimate failed (%s); branch not checked", err)
+                return
+            result.branch_drift = float(np.max(np.abs(mm.measure(warm) / mm.measure(cold) - 1.0)))
+            if result.branch_drift <= BRANCH_TOL or not result.success:    # a failed run is not extended
+                return
+            cold_only = attempt == BRANCH_RESTARTS - 1
+            log.warning("identify: warm starts drifted to another equilibrium branch (max |ΔM/M| = %.2e); "
+                        "continuing from the cold equilibria%s", result.branch_drift,
+                        " with cold solves only" if cold_only else "")
+            result.branch_restarts += 1
+            mm.remember(cold, values)
+            result.solutions = cold
+            record(values, cold)
+            if cold_only:
+                mm.warm_radius = 0.0
+            run(mm, target, sqrt_w, values, cold, options, result, record)
     finally:
         mm.warm_radius = saved
 
