@@ -80,7 +80,7 @@ def extreme_guess_dataset(labels, starts, outcomes, records, messages, level, co
     return ds
 
 
-def extreme_dataset_inputs(spec, mesh, config_hash=None) -> xr.Dataset:
+def extreme_guess_study(spec, mesh, config_hash=None) -> xr.Dataset:
     """Run every guess of a workflow job ``spec`` (``factors``, ``level``, ``constants``, ``solver``)."""
     import logging
 

@@ -29,7 +29,7 @@ import numpy as np
 from scipy.optimize import least_squares
 
 from .forward import SolveError
-from .parameters import IDENTIFIED, ParameterError
+from .parameters import ParameterError
 
 log = logging.getLogger(__name__)
 

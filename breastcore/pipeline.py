@@ -116,5 +116,5 @@ def run_stability(spec, mesh_path, out, config_hash=None):
 
 def run_extreme_guesses(spec, mesh_path, out, config_hash=None):
     """Identify from every extreme guess on inverse-crime data; each ends in a recorded outcome."""
-    from .extreme_guesses import extreme_dataset_inputs
-    write_netcdf(extreme_dataset_inputs(spec, mesh_from_dataset(open_dataset(mesh_path)), config_hash), out)
+    from .extreme_guesses import extreme_guess_study
+    write_netcdf(extreme_guess_study(spec, mesh_from_dataset(open_dataset(mesh_path)), config_hash), out)

@@ -6,6 +6,9 @@ import datetime
 import os
 import platform
 
+import numpy as np
+import pandas as pd
+
 from .datasets import open_dataset
 from .parameters import IDENTIFIED
 from .scene import error_table, stability_table
@@ -39,13 +42,12 @@ def synthetic_section(name, ds):
         "(ultra-thin).", ""])
 
 
-def level_table(ds) -> "pd.DataFrame":
+def level_table(ds) -> pd.DataFrame:
     """The paper's Table 2 layout: per mesh level, the measurement residual and the relative run time.
 
     Medians over the scene's runs of each level (every method and offset); the run
     time is relative to the level with the shortest median time.
     """
-    import pandas as pd
     df = pd.DataFrame({"mesh": ds["mesh"].values, "residual": ds["measurement_residual"].values,
                        "time_s": ds["wall_time"].values, "iterations": ds["iterations"].values})
     table = df.groupby("mesh", sort=False).median()
@@ -54,14 +56,12 @@ def level_table(ds) -> "pd.DataFrame":
     return table
 
 
-def evolution_table(ds, first=15, last=25) -> "pd.DataFrame":
+def evolution_table(ds, first=15, last=25) -> pd.DataFrame:
     """Mean and standard deviation of each parameter over iterations ``first``–``last``, per run.
 
     In % of the truth; runs that stopped before ``first`` use their last
     ``last − first + 1`` iterations (the column ``iterations`` says which).
     """
-    import numpy as np
-    import pandas as pd
     rows = []
     for mesh, method, path in zip(ds["mesh"].values, ds["method"].values, ds["identification"].values):
         run = open_dataset(str(path))
@@ -112,7 +112,6 @@ def guesses_part(ds):
     """Lines of the stability section about the identifications from extreme guesses."""
     if "guess" not in ds.dims:
         return []
-    import pandas as pd
     table = pd.DataFrame({"mesh": ds["guess_mesh"].values, "guess": ds["guess_label"].values,
                           "outcome": ds["guess_outcome"].values, "iterations": ds["guess_iterations"].values,
                           "max error": ds["guess_max_error"].values, "final E": ds["guess_cost"].values,

@@ -8,7 +8,7 @@ import xarray as xr
 from .datasets import _var, provenance
 from .identify import identify
 from .parameters import IDENTIFIED
-from .uncertainty import conditioning, linearised_sensitivity
+from .uncertainty import conditioning
 
 
 def finite_sensitivity(mm, target, estimate, options, delta=0.10):

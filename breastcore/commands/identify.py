@@ -48,14 +48,11 @@ def register(sub):
 
 
 def run(args):
-    import numpy as np
-
     from ..datasets import open_dataset, write_netcdf
     from ..forward import ForwardModel, SolverOptions
     from ..identification_dataset import identification_dataset
     from ..identify import IdentificationOptions, identify
     from ..observation import MeasurementModel
-    from ..parameters import Parameters
     from ..targets import target_from_dataset, truth_from_dataset
 
     base = parameters_from_args(args)
