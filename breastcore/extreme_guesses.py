@@ -10,15 +10,20 @@ the guess failed: the typed error) or ``crash`` (any other exception).
 
 from __future__ import annotations
 
+import logging
 import time
 
 import numpy as np
 import xarray as xr
 
 from .datasets import _var, provenance
-from .forward import SolveError
+from .forward import ForwardModel, SolveError, SolverOptions
 from .identify import IdentificationOptions, identify
+from .observation import MeasurementModel
 from .parameters import IDENTIFIED, Parameters
+from .postures import paper_postures
+
+log = logging.getLogger(__name__)
 
 OUTCOMES = ("recovered", "wrong_minimum", "not_converged", "solve_error", "crash")
 MODULI = IDENTIFIED[2:]
@@ -82,24 +87,18 @@ def extreme_guess_dataset(labels, starts, outcomes, records, messages, level, co
 
 def extreme_guess_study(spec, mesh, config_hash=None) -> xr.Dataset:
     """Run every guess of a workflow job ``spec`` (``factors``, ``level``, ``constants``, ``solver``)."""
-    import logging
-
-    from .forward import ForwardModel, SolverOptions
-    from .observation import MeasurementModel
-    from .postures import paper_postures
-    log = logging.getLogger(__name__)
     base = Parameters(**spec["constants"])
     model = ForwardModel(mesh, SolverOptions(**spec["solver"]))
     truth = np.array(base.identified())
-    mm = MeasurementModel(model, base, paper_postures())
-    target = mm.measure(mm.solve(truth, remember=False, cold=True))
-    labels, starts, outcomes, records, messages = [], [], [], [], []
+    truth_model = MeasurementModel(model, base, paper_postures())
+    target = truth_model.measure(truth_model.solve(truth, remember=False, cold=True))
+    options = IdentificationOptions(**spec["identification"])
+    labels, starts, runs = [], [], []
     for label, scale in extreme_guesses(spec["factors"]):
         mm = MeasurementModel(model, base, paper_postures())   # no warm starts carried between runs
-        outcome, record, message = run_guess(mm, target, truth, truth * scale,
-                                             IdentificationOptions(**spec["identification"]))
-        log.info("guess %s: %s (%s)", label, outcome, message)
-        for item, value in ((labels, label), (starts, truth * scale), (outcomes, outcome), (records, record),
-                            (messages, message)):
-            item.append(value)
+        runs.append(run_guess(mm, target, truth, truth * scale, options))
+        log.info("guess %s: %s (%s)", label, runs[-1][0], runs[-1][2])
+        labels.append(label)
+        starts.append(truth * scale)
+    outcomes, records, messages = (list(column) for column in zip(*runs))
     return extreme_guess_dataset(labels, starts, outcomes, records, messages, spec["level"], config_hash)

@@ -10,6 +10,7 @@ with steps that never aim at a saddle.
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 
 import numpy as np
@@ -106,10 +107,9 @@ def escape_saddle(problem, result, max_iterations=100, max_rounds=3):
     -----
     At a saddle x* with ``K v = κ v``, κ < 0, the energy along ``x* + α v`` is
     ``J(x*) + ½ κ α² + O(α³)``. The step ``α`` (either sign) is the largest of
-    ``α₀ 2⁻ᵏ`` with an admissible state and a lower energy, ``α₀`` being the
-    first trial step. Newton then runs with
-    ``avoid_saddles`` so that no step aims back at the saddle.
-    ``α₀`` is :data:`START_FRACTION` × ``problem.length_scale`` (the cap radius R).
+    ``α₀ 2⁻ᵏ`` with an admissible state and a lower energy, where ``α₀`` is
+    :data:`START_FRACTION` × ``problem.length_scale`` (the cap radius R). Newton
+    then runs with ``avoid_saddles`` so that no step aims back at the saddle.
     """
     pattern = getattr(problem, "pattern", None)
     iterations = result.iterations
@@ -123,25 +123,12 @@ def escape_saddle(problem, result, max_iterations=100, max_rounds=3):
         if values.size == 0:
             log.info("saddle test: no negative eigenvalue found near zero (inertia %d)", inertia)
             break
-        z, energy = result.x, result.energy
-        moved = None
-        alpha = length
-        while alpha > 1e-9 * length and moved is None:
-            for v in vectors.T:
-                for sign in (1.0, -1.0):
-                    trial = z + sign * alpha * v
-                    e = problem.value(trial)
-                    if np.isfinite(e) and e < energy:
-                        moved = trial
-                        break
-                if moved is not None:
-                    break
-            alpha *= 0.5
+        moved, alpha = _downhill_along(problem, result.x, result.energy, vectors, length)
         if moved is None:
             log.info("saddle escape: no admissible lower-energy point along %d directions", values.size)
             break
         log.info("saddle (κ_min = %.3e N/m, inertia %d): moved %.3e m, minimising again", values.min(), inertia,
-                 2.0 * alpha)
+                 alpha)
         result = newton(problem, moved, result.tolerance, max_iterations, avoid_saddles=True)
         iterations += result.iterations
         if result.success:
@@ -150,6 +137,19 @@ def escape_saddle(problem, result, max_iterations=100, max_rounds=3):
     return _with(result, iterations=iterations)
 
 
+def _downhill_along(problem, z, energy, vectors, length):
+    """``(z + α s v, α)`` for the largest ``α = length 2⁻ᵏ`` lowering the energy; ``(None, None)`` if none."""
+    alpha = length
+    while alpha > 1e-9 * length:
+        for v in vectors.T:
+            for sign in (1.0, -1.0):
+                trial = z + sign * alpha * v
+                e = problem.value(trial)
+                if np.isfinite(e) and e < energy:
+                    return trial, alpha
+        alpha *= 0.5
+    return None, None
+
+
 def _with(result, **changes):
-    import dataclasses
     return dataclasses.replace(result, **changes)
