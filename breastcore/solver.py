@@ -266,6 +266,24 @@ class Factorization:
         return self._lu.solve(b)
 
 
+def shift_diagonal(K, sigma):
+    """``K + σI`` with the sparsity structure of ``K`` (CSR, every diagonal entry stored).
+
+    ``K + σ * identity`` would drop ``K``'s explicit zeros, and the result would
+    no longer match ``K``'s :class:`SymmetricPattern` (a new symbolic analysis,
+    twice the cost of the numeric factorisation). Falls back to the sparse sum
+    when a diagonal entry is not stored.
+    """
+    K = K.tocsr()
+    rows = np.repeat(np.arange(K.shape[0]), np.diff(K.indptr))
+    diagonal = np.flatnonzero(K.indices == rows)
+    if diagonal.size != K.shape[0]:
+        return (K + sigma * sp.identity(K.shape[0], format="csr")).tocsr()
+    shifted = K.copy()
+    shifted.data[diagonal] += sigma
+    return shifted
+
+
 def _dot(a, b):
     """``a · b`` without BLAS (a threaded BLAS dot stalls when the other core is busy)."""
     return float(np.einsum("i,i->", a, b))
@@ -373,7 +391,7 @@ def newton(problem, z0, tolerance, max_iterations=50, avoid_saddles=False):
         for mode in ("exact", "project", "shift"):
             K = problem.hessian(z, project=(mode != "exact"))
             if mode == "shift":
-                K = K + sp.identity(K.shape[0], format="csr") * (1e-6 * abs(K.diagonal()).max())
+                K = shift_diagonal(K, 1e-6 * abs(K.diagonal()).max())
             factor, d = _factor_solve(K, g, pattern)
             if mode == "exact":
                 inertia = None if factor is None else factor.negative_pivots

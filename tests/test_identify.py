@@ -108,8 +108,11 @@ def test_identify_command_writes_history_estimate_and_uncertainty(tmp_path):
     sol, meas, out = tmp_path / "s.nc", tmp_path / "m.nc", tmp_path / "id.nc"
     assert main(["solve", "--mesh", "coarse", "--out", str(sol)]) == 0
     assert main(["measure", str(sol), "--out", str(meas)]) == 0
-    assert main(["identify", "--measurements", str(meas), "--mesh", "coarse",
+    assert main(["identify", "--measurements", str(meas), "--mesh", "coarse", "--processes", "2",
                  "--initial", "R=0.06,mu_breast=120", "--out", str(out)]) == 0
+    assert main(["identify", "--measurements", str(meas), "--mesh", "coarse", "--processes", "0",
+                 "--out", str(tmp_path / "never.nc")]) == 2
+    assert not (tmp_path / "never.nc").exists()
     ds = open_dataset(out)
     for name in ("parameters", "cost", "measurement_error", "wall_time", "estimate", "jacobian", "covariance",
                  "interval_low", "interval_high", "singular_values", "position"):
@@ -122,3 +125,16 @@ def test_identify_command_writes_history_estimate_and_uncertainty(tmp_path):
     assert main(["identify", "--measurements", str(meas), "--mesh", "coarse", "--initial", "R=0.07",
                  "--method", "gauss-newton", "--jacobian", "fd", "--max-iterations", "1", "--out", str(bad)]) == 1
     assert open_dataset(bad).sizes["iteration"] == 2
+
+
+def test_cold_solves_in_two_processes_equal_serial_ones_bit_for_bit(problem):
+    mm, solutions, _ = problem
+    parallel = MeasurementModel(mm.model, Parameters(), paper_postures(), processes=2)
+    values = TRUTH * 1.02
+    serial = MeasurementModel(mm.model, Parameters(), paper_postures()).solve(values)
+    forked = parallel.solve(values)
+    assert parallel.solves == 3
+    for name, solution in serial.items():
+        assert np.array_equal(forked[name].position, solution.position)
+    with pytest.raises(ValueError, match="processes"):
+        MeasurementModel(mm.model, Parameters(), paper_postures(), processes=0)

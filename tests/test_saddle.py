@@ -64,9 +64,12 @@ def test_refined_mesh_solve_returns_a_stable_minimum():
     from breastcore.mesh import mesh_level
     from breastcore.parameters import Parameters
     from breastcore.postures import parse_posture
-    model = ForwardModel(mesh_level("thin"))
+    mesh = mesh_level("thin")
+    model = ForwardModel(mesh)
     params, posture = Parameters(), parse_posture("bent45")
     solution = model.solve(params, posture)
+    again = ForwardModel(mesh).solve(params, posture)           # the escape is reproducible (fixed Lanczos start)
+    assert np.array_equal(again.position, solution.position)
     problem = model.problem(params, posture)
     z = problem.free(solution.position)
     plain = solver.newton(problem, z, solution.tolerance)        # independent check of the inertia
@@ -74,3 +77,12 @@ def test_refined_mesh_solve_returns_a_stable_minimum():
     inertia = solver.Factorization(problem.hessian(z)).negative_pivots
     assert inertia == 0 and solution.negative_eigenvalues == 0
     assert np.linalg.norm(problem.gradient(z)) <= solution.tolerance
+
+
+def test_shift_diagonal_keeps_the_pattern_and_adds_sigma_identity():
+    K = sp.csr_matrix((np.r_[4.0, 0.0, 1.0, 2.0, 0.0, 1.0, 3.0], [0, 1, 2, 1, 2, 0, 2], [0, 3, 5, 7]), shape=(3, 3))
+    shifted = solver.shift_diagonal(K, -1.5)                    # K has explicit zeros, which K - 1.5 I drops
+    assert np.array_equal(shifted.indices, K.indices) and np.array_equal(shifted.indptr, K.indptr)
+    assert np.allclose(shifted.toarray(), K.toarray() - 1.5 * np.eye(3))
+    pattern = solver.SymmetricPattern(K.indptr, K.indices, 3)
+    assert pattern.matches(shifted) and not pattern.matches((K - 1.5 * sp.identity(3)).tocsr())

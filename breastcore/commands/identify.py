@@ -42,12 +42,16 @@ def register(sub):
                    help="relative 1σ measurement noise of the uncertainty model (default 0.10)")
     p.add_argument("--initial-trust-radius", type=float, default=0.5,
                    help="LM: first trust-region radius in the log/logit parameters (default 0.5)")
+    p.add_argument("--processes", type=int, default=1,
+                   help="solve the postures in this many processes (default 1; 2 pays from the thin mesh up)")
     add_parameter_options(p)
     p.add_argument("--out", required=True, type=writable_path("--out"), metavar="ID.nc")
     p.set_defaults(run=run)
 
 
 def run(args):
+    if args.processes < 1:
+        raise UsageError(f"--processes must be ≥ 1, got {args.processes}")
     from ..datasets import open_dataset, write_netcdf
     from ..forward import ForwardModel, SolverOptions
     from ..identification_dataset import identification_dataset
@@ -71,7 +75,7 @@ def run(args):
     target = target_from_dataset(ds_m)
     mesh, level, _ = mesh_from_args(args)
     mm = MeasurementModel(ForwardModel(mesh, SolverOptions(method=args.solver)), base, target.postures,
-                          target.measurement_set)
+                          target.measurement_set, processes=args.processes)
     result = identify(mm, target.values, initial, options, target.weights)
     truth = truth_from_dataset(ds_m)
     truth_values = [truth[k] for k in IDENTIFIED] if truth else None
