@@ -59,6 +59,7 @@ class Plan:
         self.solver = config["solver"]
         self.report = config["report"]["enabled"]
         self.run_scenes = config.get("run_scenes") or list(config["scenes"])
+        self.max_starts = config.get("max_starts")
         self.jobs = {"mesh": {}, "solve": {}, "measure": {}, "identify": {}, "sensitivity": {}, "stability": {}, "extreme": {},
                      "scene": {}}
         self.scenes = {}
@@ -106,6 +107,7 @@ class Plan:
             for level in m.get("meshes", scene["meshes"]):
                 for offset in scene["offsets"]:
                     guesses = initial_guesses(scene["truth"], offset, scene["starts"], scene["seed"])
+                    guesses = guesses[:self.max_starts] if self.max_starts else guesses
                     for i, guess in enumerate(guesses):
                         path = self.identify(measured, level, guess, ident, solver)
                         runs.append({"method": m["name"], "mesh": level, "offset": offset, "start": i,

@@ -101,3 +101,16 @@ def test_snakemake_stops_before_any_job_on_a_bad_config(tmp_path):
     assert out.returncode != 0
     assert "scenes.example_patient.postures.standing.volume" in out.stdout + out.stderr
     assert not (tmp_path / "results").exists()
+
+
+def test_max_starts_keeps_the_first_guesses_of_the_full_draw():
+    from breastcore.workflow_plan import Plan
+    paper = yaml.safe_load((ROOT / "config/paper.yaml").read_text())
+    full = validate_config({**copy.deepcopy(DEFAULT), **paper, "scenes": paper["scenes"]}, SCHEMA)
+    capped = validate_config({**copy.deepcopy(full), "max_starts": 2}, SCHEMA)
+    runs_full = Plan(full).scenes["paper_table1"]["runs"]
+    runs_capped = Plan(capped).scenes["paper_table1"]["runs"]
+    assert len(runs_full) == 6 * 4 * 10 and len(runs_capped) == 6 * 4 * 2
+    assert {r["identification"] for r in runs_capped} <= {r["identification"] for r in runs_full}
+    assert {r["start"] for r in runs_capped} == {0, 1}
+    assert "max_starts" in _bad(lambda c: c.update(max_starts=0))
