@@ -86,3 +86,48 @@ def test_shift_diagonal_keeps_the_pattern_and_adds_sigma_identity():
     assert np.allclose(shifted.toarray(), K.toarray() - 1.5 * np.eye(3))
     pattern = solver.SymmetricPattern(K.indptr, K.indices, 3)
     assert pattern.matches(shifted) and not pattern.matches((K - 1.5 * sp.identity(3)).tocsr())
+
+
+def test_failed_last_round_returns_the_converged_saddle_not_a_failure(monkeypatch):
+    from breastcore import saddle
+    problem = DoubleWell()
+    at_saddle = solver.newton(problem, np.array([0.3, 0.0]), 1e-12)
+    real_newton = saddle.newton
+    calls = []
+
+    def stalling_newton(problem, z0, tolerance, max_iterations=50, avoid_saddles=False):
+        calls.append((max_iterations, avoid_saddles))
+        result = real_newton(problem, z0, tolerance, 0, avoid_saddles)   # no iteration: not converged
+        assert not result.success
+        return result
+
+    monkeypatch.setattr(saddle, "newton", stalling_newton)
+    result = escape_saddle(problem, at_saddle, max_iterations=100, max_rounds=1)
+    assert calls == [(saddle.AVOID_ITERATIONS, True)]
+    assert result.success and result.negative_pivots == 1 and np.array_equal(result.x, at_saddle.x)
+
+
+class FlatWell(DoubleWell):
+    """E(x, y) = x² − ε y² + y⁴ with ε = 1e-7: a negative curvature far below the stiffness."""
+
+    def value(self, z):
+        x, y = z
+        return x * x - 1e-7 * y * y + y ** 4
+
+    def gradient(self, z):
+        x, y = z
+        return np.array([2 * x, -2e-7 * y + 4 * y ** 3])
+
+    def hessian(self, z, project=False):
+        return sp.csr_matrix(np.diag([2.0, -2e-7 + 12 * z[1] ** 2]))
+
+
+def test_a_neutral_direction_is_not_escaped():
+    from breastcore.saddle import NEUTRAL_CURVATURE
+    problem = FlatWell()
+    at_saddle = solver.newton(problem, np.array([0.3, 0.0]), 1e-14)
+    assert at_saddle.success and at_saddle.negative_pivots == 1
+    assert 2e-7 < NEUTRAL_CURVATURE * 1.0                       # median |diagonal| is ~1
+    result = escape_saddle(problem, at_saddle)
+    assert np.array_equal(result.x, at_saddle.x) and result.negative_pivots == 1
+    assert escape_saddle(DoubleWell(), solver.newton(DoubleWell(), np.array([0.3, 0.0]), 1e-12)).negative_pivots == 0
