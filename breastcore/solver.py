@@ -337,6 +337,28 @@ def _line_search(problem, z, d, energy, g, g_norm, min_step=2.0**-30, expand=Fal
     return None
 
 
+#: Iterations without progress after which :func:`newton` stops (see :func:`_stagnated`).
+STAGNATION_WINDOW = 10
+
+
+def _stagnated(history, energies, scale):
+    """Whether the last :data:`STAGNATION_WINDOW` iterations made no progress at all.
+
+    No progress: the gradient norm never fell below 0.9 × its best before the
+    window, and the energy changed by at most 1e-12 × ``scale`` (round-off).
+    This happens when the tolerance lies below the gradient's round-off floor
+    (e.g. λ/μ = 1e4 with a large load, where the forces cancel to ~1e-9 N):
+    without the test such a solve spends every iteration of every continuation
+    halving there (1,600 iterations in one no-inverse-crime identification step).
+    """
+    w = STAGNATION_WINDOW
+    if len(history) <= 2 * w:
+        return False
+    best_before = min(history[:-w])
+    flat = max(energies[-w - 1:]) - min(energies[-w - 1:]) <= 1e-12 * scale
+    return flat and min(history[-w:]) > 0.9 * best_before
+
+
 def newton(problem, z0, tolerance, max_iterations=50, avoid_saddles=False):
     """Minimise ``problem`` from ``z0`` until the gradient norm is at most ``tolerance``.
 
@@ -371,6 +393,7 @@ def newton(problem, z0, tolerance, max_iterations=50, avoid_saddles=False):
     if not np.isfinite(energy):
         raise ValueError("Newton start is inadmissible (inverted tet or degenerate skin triangle)")
     history = []
+    energies = [energy]
     projected = 0
     message = "iteration limit"
     pattern = getattr(problem, "pattern", None)                      # reuse the symbolic factorisation
@@ -386,6 +409,9 @@ def newton(problem, z0, tolerance, max_iterations=50, avoid_saddles=False):
             return NewtonResult(z, True, it, g_norm, tolerance, energy, projected, tuple(history), "converged",
                                 inertia)
         if it == max_iterations:
+            break
+        if _stagnated(history, energies, abs(energy) + problem.energy_scale):
+            message = f"stagnated: |g| at its round-off floor for {STAGNATION_WINDOW} iterations"
             break
         accepted = None
         for mode in ("exact", "project", "shift"):
@@ -407,6 +433,7 @@ def newton(problem, z0, tolerance, max_iterations=50, avoid_saddles=False):
             message = "no descent step found (line search failed)"
             break
         step, z, energy = accepted
+        energies.append(energy)
         log.debug("newton it=%d |g|=%.3e step=%.3g E=%.9e mode=%s neg=%s", it, g_norm, step, energy, mode,
                   factor.negative_pivots)
     return NewtonResult(z, False, len(history) - 1, history[-1], tolerance, energy, projected, tuple(history), message,

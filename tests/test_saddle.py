@@ -131,3 +131,31 @@ def test_a_neutral_direction_is_not_escaped():
     result = escape_saddle(problem, at_saddle)
     assert np.array_equal(result.x, at_saddle.x) and result.negative_pivots == 1
     assert escape_saddle(DoubleWell(), solver.newton(DoubleWell(), np.array([0.3, 0.0]), 1e-12)).negative_pivots == 0
+
+
+class NoisyBowl:
+    """E = ½|z|² whose gradient carries a 1e-9 error that varies with z like round-off does."""
+
+    energy_scale = 1.0
+    length_scale = 1.0
+    pattern = None
+
+    def value(self, z):
+        return 0.5 * float(z @ z)
+
+    def __init__(self):
+        self.rng = np.random.default_rng(0)
+
+    def gradient(self, z):
+        return z + 1e-9 * self.rng.standard_normal(z.size)
+
+    def hessian(self, z, project=False):
+        return sp.identity(z.size, format="csr")
+
+
+def test_newton_stops_early_when_the_gradient_sits_at_its_round_off_floor():
+    result = solver.newton(NoisyBowl(), np.ones(3), tolerance=1e-12, max_iterations=100)
+    assert not result.success and result.message.startswith("stagnated")
+    assert result.iterations <= 2 * solver.STAGNATION_WINDOW + 2
+    converged = solver.newton(NoisyBowl(), np.ones(3), tolerance=1e-8, max_iterations=100)
+    assert converged.success                                     # a reachable tolerance is unaffected
