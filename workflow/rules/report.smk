@@ -112,9 +112,9 @@ rule results_page:
     log: f"{RESULTS}/logs/results_page.log"
     benchmark: f"{RESULTS}/benchmarks/results_page.tsv"
     params:
-        commands=lambda w: [f"snakemake --cores 2 results_page --configfile {os.path.relpath(f, workflow.basedir)}"
-                            for f in workflow.overwrite_configfiles]
-        or ["snakemake --cores 2 results_page"],
+        commands=lambda w: ["snakemake --cores 2 results_page" + "".join(
+            [" --configfile"] + [f" {os.path.relpath(f, workflow.basedir)}" for f in workflow.overwrite_configfiles]
+            if workflow.overwrite_configfiles else [])],
         code=CODE,
     conda: "../envs/breastcore.yaml"
     script: "../scripts/results_page.py"
