@@ -93,8 +93,8 @@ def negative_curvature_directions(K, count, pattern=None):
         sigma, factor = trial, shifted
     if sigma is None:
         return np.empty(0), np.empty((n, 0))
-    for _ in range(REFINEMENTS):                   # bisect the decade in log scale: closer σ, faster Lanczos
-        ratio = 10.0 ** (-0.5 ** (_ + 1))
+    for k in range(1, REFINEMENTS + 1):            # bisect the decade in log scale: closer σ, faster Lanczos
+        ratio = 10.0 ** (-0.5 ** k)
         shifted = Factorization(shift_diagonal(K, -sigma * ratio), pattern)
         if shifted.negative_pivots == 0:
             sigma, factor = sigma * ratio, shifted
@@ -157,11 +157,11 @@ def escape_saddle(problem, result, max_iterations=100, max_rounds=4):
     iterations = result.iterations
     length = START_FRACTION * problem.length_scale
     converged = result                              # the last equilibrium reached (lowest energy so far)
+    K = problem.hessian(result.x)                   # exact Hessian at result.x
     for round_ in range(max_rounds):
         inertia = result.negative_pivots
         if not inertia or not result.success:
             break
-        K = problem.hessian(result.x)
         values, vectors = negative_curvature_directions(K, 1, pattern)   # the lowest mode is enough
         if values.size == 0:
             log.info("saddle test: no negative eigenvalue found near zero (inertia %d)", inertia)
@@ -170,7 +170,7 @@ def escape_saddle(problem, result, max_iterations=100, max_rounds=4):
         if values.min() > -NEUTRAL_CURVATURE * stiffness:
             log.info("saddle test: κ_min = %.3e N/m is a neutral direction (median stiffness %.3e N/m); kept",
                      values.min(), stiffness)
-            break
+            return _with(result, iterations=iterations)
         moved, alpha = _downhill_along(problem, result.x, result.energy, vectors, length)
         if moved is None:
             log.info("saddle escape: no admissible lower-energy point along %d directions", values.size)
@@ -183,15 +183,14 @@ def escape_saddle(problem, result, max_iterations=100, max_rounds=4):
                         avoid_saddles=last_round)
         iterations += result.iterations
         if result.success:
-            final = Factorization(problem.hessian(result.x), pattern).negative_pivots
-            result = converged = _with(result, negative_pivots=final)
+            K = problem.hessian(result.x)          # its inertia now, its eigenvectors next round
+            result = converged = _with(result, negative_pivots=Factorization(K, pattern).negative_pivots)
     if not result.success:
         log.warning("saddle escape failed (%s); returning the equilibrium reached before it, a saddle with "
                     "%d negative eigenvalues", result.message, converged.negative_pivots)
         result = converged
     elif result.negative_pivots:
-        log.warning("saddle escape: still a saddle (%d negative eigenvalues) after %d rounds",
-                    result.negative_pivots, max_rounds)
+        log.warning("saddle escape ended on a saddle (%d negative eigenvalues)", result.negative_pivots)
     return _with(result, iterations=iterations)
 
 

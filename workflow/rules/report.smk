@@ -106,15 +106,16 @@ use rule stability_map as stability_table with:
     benchmark: f"{RESULTS}/benchmarks/scenes/{{scene}}/stability_table.tsv"
 
 
+CONFIG_FILES = " ".join(os.path.relpath(f, workflow.basedir) for f in workflow.overwrite_configfiles)
+
+
 rule results_page:
     input: unpack(lambda w: {name: PLAN.scenes[name]["summary"] for name in PLAN.run_scenes})
     output: "docs/results.md"
     log: f"{RESULTS}/logs/results_page.log"
     benchmark: f"{RESULTS}/benchmarks/results_page.tsv"
     params:
-        commands=lambda w: ["snakemake --cores 2 results_page" + "".join(
-            [" --configfile"] + [f" {os.path.relpath(f, workflow.basedir)}" for f in workflow.overwrite_configfiles]
-            if workflow.overwrite_configfiles else [])],
+        commands=["snakemake --cores 2 results_page" + (f" --configfile {CONFIG_FILES}" if CONFIG_FILES else "")],
         code=CODE,
     conda: "../envs/breastcore.yaml"
     script: "../scripts/results_page.py"
