@@ -79,6 +79,7 @@ def identification_dataset(result, mm, target, options, *, initial, truth=None, 
                           measurement_set=target.measurement_set, forward_solves=result.forward_solves,
                           failed_solves=result.failed_solves, jacobian_rank=rank, condition_number=cond,
                           branch_restarts=result.branch_restarts, branch_drift=result.branch_drift,
+                          iterations=result.iterations,
                           options={k: getattr(options, k) for k in options.__dataclass_fields__},
                           title="breastcore parameter identification")
     return ds

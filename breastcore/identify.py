@@ -35,6 +35,8 @@ log = logging.getLogger(__name__)
 
 #: Residual returned for a Λ whose forward solve fails: cost ≫ any real one.
 FAILED_RESIDUAL = 1e3
+#: LM's cap on residual evaluations (trial points, accepted or not) per allowed iteration.
+MAX_EVALUATIONS_PER_ITERATION = 3
 
 
 @dataclass(frozen=True)
@@ -52,6 +54,10 @@ class IdentificationOptions:
     xtol, ftol, gtol : float
         ``least_squares`` stopping tolerances (LM).
     max_iterations : int
+        Accepted steps (iterations) of the whole identification, branch restarts
+        included: the paper reports its results "after 25 iterations". LM also
+        stops after ``MAX_EVALUATIONS_PER_ITERATION × max_iterations`` residual
+        evaluations (trial points, rejected ones included).
     noise : float
         Relative 1σ measurement noise of the uncertainty model (0.10 = 10 %).
     initial_trust_radius : float
@@ -100,6 +106,7 @@ class IdentificationResult:
     failed_solves: int = 0
     branch_restarts: int = 0                              # runs continued with cold solves (see identify)
     branch_drift: float = 0.0                             # max |M_warm/M_cold − 1| at the last check
+    iterations: int = 0                                   # accepted steps, over all runs (≤ max_iterations)
 
 
 def to_unconstrained(values):
@@ -271,20 +278,26 @@ def _levenberg_marquardt(mm, target, sqrt_w, initial, solutions, options, result
 
     def on_step(intermediate_result):
         callback(_Point(to_z(intermediate_result.x)))
-        if result.cost[-1] <= EXACT_FIT:
+        result.iterations += 1
+        if result.cost[-1] <= EXACT_FIT or result.iterations >= options.max_iterations:
             raise StopIteration                           # scipy ≥ 1.16: ends with status −2
 
     out = least_squares(lambda d: fun(to_z(d)), np.zeros_like(z0), jac=lambda d, *_: jac(to_z(d)) * radius,
                         method="trf", tr_solver="exact", x_scale=1.0,
                         xtol=options.xtol, ftol=options.ftol, gtol=options.gtol * radius,   # gtol on ∂E/∂z
-                        max_nfev=options.max_iterations * 2, callback=on_step)
+                        max_nfev=options.max_iterations * MAX_EVALUATIONS_PER_ITERATION, callback=on_step)
     values, sols = cache[to_z(out.x).tobytes()]
     if not np.allclose(result.parameters[-1], values, rtol=0, atol=0):
         result.solutions = sols
         record(values, sols)
     exact = out.status == -2 and result.cost[-1] <= EXACT_FIT
     result.success = bool(out.status > 0 or exact) and np.all(np.abs(out.fun) < FAILED_RESIDUAL)
-    result.message = f"exact fit: cost {result.cost[-1]:.2e} ≤ {EXACT_FIT:g}" if exact else out.message
+    if exact:
+        result.message = f"exact fit: cost {result.cost[-1]:.2e} ≤ {EXACT_FIT:g}"
+    elif out.status == -2:
+        result.message = f"iteration limit ({options.max_iterations})"
+    else:
+        result.message = out.message
 
 
 class _Point:
@@ -297,7 +310,7 @@ class _Point:
 def _gauss_newton(mm, target, sqrt_w, initial, solutions, options, result, record):
     values, sols = np.array(initial, float), solutions
     cost = result.cost[-1]
-    for _ in range(options.max_iterations):
+    while result.iterations < options.max_iterations:
         m = mm.measure(sols) / target
         J = sqrt_w[..., None] * relative_jacobian(mm, values, sols, options) * values / target[..., None]
         step, *_ = np.linalg.lstsq(J.reshape(target.size, -1), (sqrt_w * (1.0 - m)).ravel(), rcond=None)
@@ -317,6 +330,7 @@ def _gauss_newton(mm, target, sqrt_w, initial, solutions, options, result, recor
         values, sols = trial, trial_sols
         result.solutions = sols
         record(values, sols)
+        result.iterations += 1
         if cost - result.cost[-1] < options.cost_tol:
             result.success = True
             result.message = f"cost decrease below ε_m = {options.cost_tol:g}"

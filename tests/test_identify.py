@@ -77,6 +77,19 @@ def test_initial_trust_radius_bounds_the_first_step(problem):
     assert 0 < np.linalg.norm(step) <= radius * (1 + 1e-9)
 
 
+@pytest.mark.parametrize("method", ["lm", "gauss-newton"])
+def test_max_iterations_caps_accepted_steps(problem, method):
+    """The paper reports its losses "after 25 iterations": the cap counts accepted steps."""
+    mm, _, target = problem
+    opts = IdentificationOptions(method=method, jacobian="fd" if method == "gauss-newton" else "implicit",
+                                 max_iterations=3)
+    result = identify(mm, target, TRUTH * np.array([1.3, 0.8, 1.3, 0.7, 1.3, 0.7]), opts)
+    assert result.iterations == 3 and not result.success
+    assert result.message == "iteration limit (3)"
+    assert len(result.cost) - 1 == 3                   # no branch restart after a run that stopped at its cap
+    assert result.cost[-1] < result.cost[0]
+
+
 def test_paper_gauss_newton_decreases_the_cost(problem):
     mm, _, target = problem
     start = TRUTH * 1.1
