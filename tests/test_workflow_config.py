@@ -114,3 +114,22 @@ def test_max_starts_keeps_the_first_guesses_of_the_full_draw():
     assert {r["identification"] for r in runs_capped} <= {r["identification"] for r in runs_full}
     assert {r["start"] for r in runs_capped} == {0, 1}
     assert "max_starts" in _bad(lambda c: c.update(max_starts=0))
+
+
+def test_compute_hash_covers_exactly_the_modules_the_compute_rules_import(tmp_path):
+    from pathlib import Path
+
+    import breastcore
+    from breastcore import _imported_modules
+
+    (tmp_path / "__init__.py").write_text("")
+    (tmp_path / "a.py").write_text("from .b import f\n")
+    (tmp_path / "b.py").write_text("def f():\n    from breastcore.c import g\n")
+    (tmp_path / "c.py").write_text("import numpy\nfrom . import __version__\n")
+    (tmp_path / "report.py").write_text("from .a import f\n")
+    assert [p.name for p in _imported_modules(tmp_path, ["a"])] == ["__init__.py", "a.py", "b.py", "c.py"]
+
+    names = {p.name for p in _imported_modules(Path(breastcore.__file__).parent, ["pipeline", "logs", "workflow_plan"])}
+    assert {"pipeline.py", "solver.py", "kernels.py", "saddle.py", "logs.py", "workflow_plan.py"} <= names
+    assert not names & {"results_page.py", "plots.py", "scene.py"}
+    assert breastcore.source_hash("pipeline") != breastcore.source_hash()

@@ -8,7 +8,11 @@ from breastcore.workflow_plan import Plan
 
 PLAN = Plan(config)
 RESULTS = PLAN.results
-CODE = source_hash()          # a param of every rule: changed code reruns what it affects
+# A param of every rule, so that changed code reruns what it affects: the compute rules
+# (their scripts import pipeline, logs and workflow_plan) hash only those modules and their
+# imports; the report rules hash the whole package.
+COMPUTE_CODE = source_hash("pipeline", "logs", "workflow_plan")
+CODE = source_hash()
 CONFIG_HASH = hashlib.sha1(json.dumps(config, sort_keys=True).encode()).hexdigest()[:12]
 
 wildcard_constraints:

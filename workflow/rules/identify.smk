@@ -7,6 +7,6 @@ rule identify:
     benchmark: f"{RESULTS}/benchmarks/identify/{{key}}.tsv"
     params:
         spec=job("identify"),
-        code=CODE,
+        code=COMPUTE_CODE,
     conda: "../envs/breastcore.yaml"
     script: "../scripts/identify.py"

@@ -5,6 +5,6 @@ rule measure:
     benchmark: f"{RESULTS}/benchmarks/measure/{{key}}.tsv"
     params:
         spec=job("measure"),
-        code=CODE,
+        code=COMPUTE_CODE,
     conda: "../envs/breastcore.yaml"
     script: "../scripts/measure.py"

@@ -4,6 +4,6 @@ rule mesh:
     benchmark: f"{RESULTS}/benchmarks/mesh/{{name}}.tsv"
     params:
         spec=job("mesh"),
-        code=CODE,
+        code=COMPUTE_CODE,
     conda: "../envs/breastcore.yaml"
     script: "../scripts/mesh.py"

@@ -5,6 +5,6 @@ rule sensitivity:
     benchmark: f"{RESULTS}/benchmarks/sensitivity/{{key}}.tsv"
     params:
         spec=job("sensitivity"),
-        code=CODE,
+        code=COMPUTE_CODE,
     conda: "../envs/breastcore.yaml"
     script: "../scripts/sensitivity.py"

@@ -5,6 +5,6 @@ rule solve:
     benchmark: f"{RESULTS}/benchmarks/solve/{{key}}.tsv"
     params:
         spec=job("solve"),
-        code=CODE,
+        code=COMPUTE_CODE,
     conda: "../envs/breastcore.yaml"
     script: "../scripts/solve.py"

@@ -19,7 +19,7 @@ rule stability:
     benchmark: f"{RESULTS}/benchmarks/stability/{{key}}.tsv"
     params:
         spec=job("stability"),
-        code=CODE,
+        code=COMPUTE_CODE,
     conda: "../envs/breastcore.yaml"
     script: "../scripts/stability.py"
 
@@ -31,6 +31,6 @@ rule extreme_guesses:
     benchmark: f"{RESULTS}/benchmarks/extreme/{{key}}.tsv"
     params:
         spec=job("extreme"),
-        code=CODE,
+        code=COMPUTE_CODE,
     conda: "../envs/breastcore.yaml"
     script: "../scripts/extreme_guesses.py"
