@@ -88,15 +88,15 @@ def run_identify(spec, measure_path, mesh_path, out, config_hash=None):
         log.warning("identification did not converge: %s", result.message)
 
 
-def run_sensitivity(spec, identify_path, out, config_hash=None):
+def run_sensitivity(spec, identify_path, out, config_hash=None, processes=1):
     ds = open_dataset(identify_path)
     mm, target, options, estimate = problem_from_identification(ds)
     J = ds["jacobian"].values.reshape(-1, ds.sizes["parameter"])
     linear = linearised_sensitivity(J, target.weights)
-    finite, failures = (None, 0)
+    finite, failures, limited = (None, 0, 0)
     if spec["finite"]:
-        finite, failures = finite_sensitivity(mm, target, estimate, options, spec["delta"])
-    write_netcdf(sensitivity_dataset(ds, finite, linear, failures, spec["delta"], config_hash), out)
+        finite, failures, limited = finite_sensitivity(mm, target, estimate, options, spec["delta"], processes)
+    write_netcdf(sensitivity_dataset(ds, finite, linear, failures, spec["delta"], config_hash, limited), out)
 
 
 def run_stability(spec, mesh_path, out, config_hash=None):

@@ -17,6 +17,25 @@ from .scene import error_table, stability_table
 PAPER_TABLE1_COARSE = dict(zip(IDENTIFIED, (0.08, 0.39, 0.42, 0.89, 0.27, 2.77)))
 #: The paper's timings (Intel i5-2450M): coarse 196 s, ultra-thin 1587 s, guesses up to 50 % off.
 PAPER_TIMES = {"coarse": 196.0, "ultra-thin": 1587.0}
+#: The paper's sensitivity table (its very-thin mesh), rows m1..m15, columns R, H, λ, λ_p, μ, μ_p as
+#: printed (λ_p, μ_p are our λ_s, μ_s); the paper prints magnitudes ("all the values are positive").
+PAPER_SENSITIVITY = np.array([
+    [0.0016, 0.0113, 0.0478, 0.0058, 0.0272, 0.0021],
+    [0.2628, 0.2802, 5.4429, 1.0576, 8.2985, 1.4528],
+    [0.0566, 0.5668, 1.5790, 4.3696, 1.2637, 12.3298],
+    [0.3232, 0.8874, 17.4148, 3.0257, 5.4678, 10.6005],
+    [0.0369, 0.2766, 0.6299, 1.1390, 0.0739, 3.4336],
+    [0.0016, 0.0034, 0.0611, 0.0128, 0.0157, 0.0251],
+    [0.4995, 0.7457, 7.8666, 5.0323, 7.0629, 18.0483],
+    [0.1920, 0.1134, 16.4224, 5.0502, 2.6954, 23.8555],
+    [1.0510, 0.2342, 5.2028, 0.1780, 0.8115, 1.2001],
+    [0.0038, 0.0317, 0.0846, 0.0549, 0.0025, 0.1724],
+    [0.0022, 0.0063, 0.0359, 0.0144, 0.0001, 0.0416],
+    [0.0599, 0.6822, 0.7975, 0.5324, 2.5195, 0.4907],
+    [0.3179, 1.7219, 5.7136, 2.4447, 0.2099, 7.8664],
+    [0.9880, 0.1418, 4.2689, 4.4837, 0.6020, 11.0254],
+    [0.0020, 0.0121, 0.1050, 0.0077, 0.0191, 0.0355],
+])[:, [0, 1, 2, 4, 3, 5]]          # to our order R, H, λ, μ, λ_s, μ_s
 
 
 def _machine():
@@ -95,6 +114,52 @@ def evolution_section(name, ds):
         table.to_markdown(index=False, floatfmt=".4g"), ""])
 
 
+def sensitivity_tables(ds) -> dict:
+    """``{title: DataFrame}``: one row per measurement m1..m15, one column per parameter.
+
+    Ours (finite ±δ and linearised, signed), their difference, and the paper's table
+    (magnitudes), from a synthetic summary with ``sensitivity_*`` variables.
+    """
+    labels = [f"m{i + 1} {m}" for i, m in enumerate(ds["measurement"].values)]
+    tables = {}
+    for key, title in (("finite", "finite ±10 % (ours)"), ("linearised", "linearised (ours)"),
+                       ("difference", "finite − linearised (ours)")):
+        if f"sensitivity_{key}" in ds:
+            tables[title] = pd.DataFrame(ds[f"sensitivity_{key}"].values.T, index=labels, columns=IDENTIFIED)
+    if len(labels) == PAPER_SENSITIVITY.shape[0]:
+        tables["paper (magnitudes, its very-thin mesh)"] = pd.DataFrame(PAPER_SENSITIVITY, index=labels,
+                                                                        columns=IDENTIFIED)
+    return tables
+
+
+def _weakest(table, count=5):
+    """The ``count`` measurements with the smallest row norm (least influence on Λ)."""
+    norms = np.sqrt(np.nansum(table.values ** 2, axis=1))
+    return ", ".join(table.index[i].split()[0] for i in sorted(np.argsort(norms)[:count]))
+
+
+def sensitivity_section(name, ds):
+    a = ds.attrs
+    lines = [f"### Scene `{name}`: sensitivity of Λ to each measurement (6×15, shown transposed)", "",
+             f"Relative sensitivities (m_i/Λ_j) ∂Λ_j/∂m_i at the estimate of the scene's first run, on the "
+             f"{a.get('sensitivity_mesh', '?')} mesh. Measurements m1–m5 are standing, m6–m10 bent 45°, m11–m15 on "
+             "all fours, each in the order volume, area, height, frontal depth, back depth.",
+             f"Linearised (JᵀJ)⁻¹Jᵀ: rank {a.get('sensitivity_linearised_rank', '?')}, condition number "
+             f"{float(a.get('sensitivity_linearised_condition', np.nan)):.3g}."]
+    if "sensitivity_finite_rank" in a:
+        lines.append(f"Finite ±{float(a.get('sensitivity_delta', 0.1)):.0%}: rank {a['sensitivity_finite_rank']}, "
+                     f"condition number {float(a['sensitivity_finite_condition']):.3g}, "
+                     f"{a.get('sensitivity_finite_failures', 0)} measurement(s) whose re-identification failed, "
+                     f"{a.get('sensitivity_finite_iteration_limited', 0)} of the re-identifications stopped at their "
+                     "iteration limit (their estimate after that many iterations is used, as in the paper).")
+    lines.append("")
+    tables = sensitivity_tables(ds)
+    for title, table in tables.items():
+        lines += [f"**{title}** (five weakest measurements: {_weakest(table)})", "",
+                  table.reset_index(names="measurement").to_markdown(index=False, floatfmt=".4g"), ""]
+    return "\n".join(lines)
+
+
 def stability_section(name, ds):
     counts = {o: int((ds["outcome"].values == o).sum()) for o in ("converged", "unverified", "nan", "solve_error",
                                                                    "crash")}
@@ -143,6 +208,8 @@ def render(summaries, commands):
                 parts.append(levels_section(name, ds))
             if "evolution" in tables:
                 parts.append(evolution_section(name, ds))
+            if "sensitivity_linearised" in ds:
+                parts.append(sensitivity_section(name, ds))
         elif kind == "stability":
             parts.append(stability_section(name, ds))
     return "\n".join(parts)

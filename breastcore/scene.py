@@ -11,11 +11,13 @@ from .parameters import IDENTIFIED, PARAMETER_INFO
 from .solution import DIAGNOSTICS
 
 
-def synthetic_summary(runs, paths, name, config_hash=None, tables=()) -> xr.Dataset:
+def synthetic_summary(runs, paths, name, config_hash=None, tables=(), sensitivity=()) -> xr.Dataset:
     """One row per identification run: mesh, offset, errors, cost, iterations, time, success.
 
     ``tables`` names the extra results-page tables of the scene (``levels``,
-    ``evolution``); it is stored as the attribute ``tables``.
+    ``evolution``); it is stored as the attribute ``tables``. ``sensitivity``: the
+    scene's sensitivity datasets; the first one's matrices are copied in as
+    ``sensitivity_*(parameter, measurement)``, with their ranks and conditions.
     """
     rows = [open_dataset(p) for p in paths]
     rel = np.array([ds["relative_error"].values for ds in rows])
@@ -30,7 +32,8 @@ def synthetic_summary(runs, paths, name, config_hash=None, tables=()) -> xr.Data
         "relative_error": _var(("run", "parameter"), rel, "1", "estimate / truth − 1"),
         "mean_abs_error": _var(("run",), np.abs(rel).mean(axis=1), "1", "mean |relative error| over the six"),
         "cost": _var(("run",), np.array([ds["cost"].values[-1] for ds in rows]), "1", "final cost E"),
-        "iterations": _var(("run",), np.array([ds.sizes["iteration"] - 1 for ds in rows]), "1", "accepted iterations"),
+        "iterations": _var(("run",), np.array([int(ds.attrs.get("iterations", ds.sizes["iteration"] - 1))
+                                               for ds in rows]), "1", "accepted iterations"),
         "wall_time": _var(("run",), np.array([ds["wall_time"].values[-1] for ds in rows]), "s", "identification time"),
         "success": _var(("run",), np.array([int(ds.attrs["success"]) for ds in rows]), "1", "1 if converged"),
         "forward_solves": _var(("run",), np.array([int(ds.attrs["forward_solves"]) for ds in rows]), "1",
@@ -38,9 +41,19 @@ def synthetic_summary(runs, paths, name, config_hash=None, tables=()) -> xr.Data
     }
     coords = {"parameter": _var(("parameter",), np.array(IDENTIFIED), "1", "identified parameter"),
               "identification": _var(("run",), np.array(paths), "1", "identification dataset")}
+    extra = {}
+    if sensitivity:
+        sens = open_dataset(sensitivity[0])
+        coords["measurement"] = sens["measurement"].variable
+        for key in ("linearised", "finite", "difference"):
+            if key in sens:
+                data[f"sensitivity_{key}"] = sens[key].variable
+        extra = {f"sensitivity_{k}": v for k, v in sens.attrs.items()
+                 if k.startswith(("linearised_", "finite_")) or k == "delta"}
+        extra["sensitivity_mesh"] = runs[0]["mesh"]        # the plan analyses the scene's first run
     ds = xr.Dataset(data, coords=coords)
     ds.attrs = provenance("scene", None, config_hash, scene=name, scene_kind="synthetic", tables=",".join(tables),
-                          title=f"synthetic identification study {name}")
+                          title=f"synthetic identification study {name}", **extra)
     return ds
 
 

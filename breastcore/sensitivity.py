@@ -7,39 +7,63 @@ import xarray as xr
 
 from .datasets import _var, provenance
 from .identify import identify
+from .parallel import fork_map
 from .parameters import IDENTIFIED
 from .uncertainty import conditioning
 
 
-def finite_sensitivity(mm, target, estimate, options, delta=0.10):
+def finite_sensitivity(mm, target, estimate, options, delta=0.10, processes=1):
     r"""The paper's matrix ``(Λ_j(m_i+) − Λ_j(m_i−)) / (Λ_j · 2δ)``, shape ``(6, n)``.
 
     Each ``m_i±`` multiplies one measurement by ``1 ± δ``; Λ is re-identified from
-    the estimate (warm start), with the same options. Failed re-identifications
-    leave NaN in their column and are counted in the second return value.
+    the estimate with the same options, each re-identification warm-started from the
+    equilibria at the estimate (so that none depends on the ones before it, and the
+    result is the same for any ``processes``, the number of forked workers).
+
+    Returns
+    -------
+    S : (6, n) array
+        NaN in the column of a measurement whose re-identification failed (a forward
+        solve error at its start, or LM/Gauss–Newton ending without converging for
+        another reason than its iteration limit).
+    failures : int
+        Measurements whose column is NaN.
+    limited : int
+        Re-identifications (of the 2n) that stopped at ``options.max_iterations``:
+        their estimate after that many iterations is used, as in the paper's
+        fixed-iteration runs.
     """
     values = np.asarray(target.values, float)
+    estimate = np.asarray(estimate, float)
     n = values.size
+    anchor = mm.solve(estimate, remember=False)
+
+    def reidentify(task):
+        i, end = divmod(task, 2)
+        perturbed = values.copy().ravel()
+        perturbed[i] *= (1.0 + delta, 1.0 - delta)[end]
+        mm.remember(anchor, estimate)
+        try:
+            res = identify(mm, perturbed.reshape(values.shape), estimate, options, target.weights)
+        except Exception:  # noqa: BLE001 — a failed solve: recorded, never fatal
+            return None, False
+        limited = res.iterations >= options.max_iterations and not res.success
+        return (res.estimate if res.success or limited else None), limited
+
+    outcomes = fork_map(reidentify, 2 * n, processes)
     S = np.full((len(IDENTIFIED), n), np.nan)
     failures = 0
     for i in range(n):
-        ends = []
-        for sign in (1.0, -1.0):
-            perturbed = values.copy().ravel()
-            perturbed[i] *= 1.0 + sign * delta
-            try:
-                res = identify(mm, perturbed.reshape(values.shape), estimate, options, target.weights)
-                ends.append(res.estimate if res.success else None)
-            except Exception:  # noqa: BLE001 — a failed solve: recorded, never fatal
-                ends.append(None)
-        if any(e is None for e in ends):
+        plus, minus = outcomes[2 * i][0], outcomes[2 * i + 1][0]
+        if plus is None or minus is None:
             failures += 1
             continue
-        S[:, i] = (ends[0] - ends[1]) / (np.asarray(estimate) * 2.0 * delta)
-    return S, failures
+        S[:, i] = (plus - minus) / (estimate * 2.0 * delta)
+    return S, failures, sum(limited for _, limited in outcomes)
 
 
-def sensitivity_dataset(identification: xr.Dataset, finite, linear, failures, delta, config_hash=None):
+def sensitivity_dataset(identification: xr.Dataset, finite, linear, failures, delta, config_hash=None,
+                        limited=0):
     """Both matrices, their difference, rank and condition number."""
     postures = identification["posture"].values
     quantities = identification["quantity"].values
@@ -57,7 +81,8 @@ def sensitivity_dataset(identification: xr.Dataset, finite, linear, failures, de
         data["difference"] = _var(("parameter", "measurement"), finite - linear, "1", "finite − linearised")
         ok = np.all(np.isfinite(finite), axis=0)
         _, rank_fin, cond_fin = conditioning(finite[:, ok]) if ok.any() else (None, 0, np.inf)
-        attrs.update(finite_rank=rank_fin, finite_condition=cond_fin, finite_failures=failures)
+        attrs.update(finite_rank=rank_fin, finite_condition=cond_fin, finite_failures=failures,
+                     finite_iteration_limited=limited)
     coords = {
         "parameter": identification["parameter"].variable,
         "measurement": _var(("measurement",), labels, "1", "posture:quantity"),

@@ -126,6 +126,7 @@ def test_identify_command_writes_history_estimate_and_uncertainty(tmp_path):
     assert main(["identify", "--measurements", str(meas), "--mesh", "coarse", "--processes", "0",
                  "--out", str(tmp_path / "never.nc")]) == 2
     assert not (tmp_path / "never.nc").exists()
+    assert main(["sensitivity", str(out), "--processes", "0", "--out", str(tmp_path / "never.nc")]) == 2
     ds = open_dataset(out)
     for name in ("parameters", "cost", "measurement_error", "wall_time", "estimate", "jacobian", "covariance",
                  "interval_low", "interval_high", "singular_values", "position"):

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from ..cli import existing_file, writable_path
+from ..cli import UsageError, existing_file, writable_path
 
 
 def register(sub):
@@ -12,6 +12,8 @@ def register(sub):
     p.add_argument("identification", type=existing_file("ID"), metavar="ID.nc")
     p.add_argument("--delta", type=float, default=0.10, help="relative perturbation δ of each measurement (default 0.10)")
     p.add_argument("--linearised-only", action="store_true", help="skip the 2n re-identifications")
+    p.add_argument("--processes", type=int, default=1,
+                   help="forked processes for the 2n re-identifications (default 1; same results for any value)")
     p.add_argument("--out", required=True, type=writable_path("--out"), metavar="S.nc")
     p.set_defaults(run=run)
 
@@ -22,11 +24,14 @@ def run(args):
     from ..study import problem_from_identification
     from ..uncertainty import linearised_sensitivity
 
+    if args.processes < 1:
+        raise UsageError(f"--processes must be ≥ 1, got {args.processes}")
     ds = open_dataset(args.identification)
     mm, target, options, estimate = problem_from_identification(ds)
     J = ds["jacobian"].values.reshape(-1, ds.sizes["parameter"])
     linear = linearised_sensitivity(J, target.weights)
-    finite, failures = (None, 0) if args.linearised_only else finite_sensitivity(mm, target, estimate, options, args.delta)
-    out = sensitivity_dataset(ds, finite, linear, failures, args.delta)
+    finite, failures, limited = (None, 0, 0) if args.linearised_only else \
+        finite_sensitivity(mm, target, estimate, options, args.delta, args.processes)
+    out = sensitivity_dataset(ds, finite, linear, failures, args.delta, limited=limited)
     write_netcdf(out, args.out)
     print(f"wrote {args.out}")

@@ -13,7 +13,7 @@ def main(snakemake):
             ds = stability_summary(spec["chunks"], name, spec_key(spec), guesses=spec.get("guesses", []))
         elif spec["kind"] == "synthetic":
             ds = synthetic_summary(spec["runs"], [r["identification"] for r in spec["runs"]], name, spec_key(spec),
-                                   tables=spec.get("tables", []))
+                                   tables=spec.get("tables", []), sensitivity=spec.get("sensitivity", []))
         else:
             source = spec["identification"] if spec["kind"] == "patient" else spec["solution"]
             ds = solution_summary(source, name, spec["kind"], spec_key(spec))

@@ -9,7 +9,7 @@ def main(snakemake):
     spec = snakemake.params.spec
     key = spec_key(spec)
     with log_to(snakemake.log[0]):
-        run_sensitivity(spec, snakemake.input.identification, snakemake.output[0], key)
+        run_sensitivity(spec, snakemake.input.identification, snakemake.output[0], key, snakemake.threads)
 
 
 if __name__ == "__main__":

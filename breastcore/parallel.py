@@ -1,0 +1,36 @@
+"""``fork_map``: ``[function(i) for i in range(count)]`` in forked worker processes.
+
+The function may be a closure over unpicklable state (a forward model with its
+PARDISO handles): the forked children inherit it, and only the indices and the
+results cross the process boundary.
+"""
+
+from __future__ import annotations
+
+import multiprocessing as mp
+
+_FUNCTION = None          # the function of the running fork_map, inherited by its children
+
+
+def fork_map(function, count, processes=1):
+    """``[function(i) for i in range(count)]``, in up to ``processes`` forked processes.
+
+    Serial where ``fork`` is not available, in a daemon process, or for
+    ``processes ≤ 1``. The results are in index order; ``function`` must return
+    picklable values and must not depend on what earlier calls did to shared state
+    if the results are to be the same for every ``processes``.
+    """
+    processes = min(int(processes), count)
+    if processes <= 1 or "fork" not in mp.get_all_start_methods() or mp.current_process().daemon:
+        return [function(i) for i in range(count)]
+    global _FUNCTION
+    _FUNCTION = function
+    try:
+        with mp.get_context("fork").Pool(processes) as pool:
+            return pool.map(_call, range(count), chunksize=1)
+    finally:
+        _FUNCTION = None
+
+
+def _call(index):
+    return _FUNCTION(index)
