@@ -37,28 +37,47 @@ def source_hash(*entries: str) -> str:
 
 
 def _imported_modules(root, entries):
-    """Sorted paths of ``__init__``, ``entries`` and the package modules they import, transitively."""
+    """Sorted paths of ``__init__``, ``entries`` and the package modules they import, transitively.
+
+    Follows ``from . import x``, ``from .x import y``, ``from ..x import y``,
+    ``from breastcore(.x) import y`` and ``import breastcore.x``, at any depth of the
+    code (imports inside functions too); a submodule brings its packages'
+    ``__init__`` files.
+    """
     import ast
 
-    def path_of(name):
-        module, package = root / f"{name}.py", root / name / "__init__.py"
-        return module if module.exists() else package if package.exists() else None
+    def path_of(parts):
+        module, package = root.joinpath(*parts).with_suffix(".py"), root.joinpath(*parts, "__init__.py")
+        return module if parts and module.exists() else package if package.exists() else None
 
-    seen, todo = set(), list(entries)
+    def package_of(path):                                    # x.py → [], sub/y.py and sub/__init__.py → [sub]
+        return list(path.relative_to(root).parts[:-1])
+
+    def targets(node, package):
+        if isinstance(node, ast.Import):
+            return [a.name.split(".")[1:] for a in node.names if a.name.startswith("breastcore.")]
+        if not isinstance(node, ast.ImportFrom):
+            return []
+        if node.level:
+            base = package[:len(package) - (node.level - 1)] + (node.module.split(".") if node.module else [])
+        elif node.module == "breastcore" or (node.module or "").startswith("breastcore."):
+            base = node.module.split(".")[1:]
+        else:
+            return []
+        return [base] + [base + [a.name] for a in node.names]
+
+    seen, todo = set(), [[e] for e in entries]
+    for parts in todo:
+        if path_of(parts) is None:
+            raise ValueError(f"no module {'.'.join(parts)!r} in {root}")
     while todo:
-        name = todo.pop()
-        path = path_of(name)
-        if path is None:
-            raise ValueError(f"no module {name!r} in {root}")
-        if path in seen:
-            continue
-        seen.add(path)
-        for node in ast.walk(ast.parse(path.read_text())):
-            if isinstance(node, ast.ImportFrom) and node.level == 1:
-                names = [node.module] if node.module else [alias.name for alias in node.names]
-            elif isinstance(node, ast.ImportFrom) and (node.module or "").startswith("breastcore."):
-                names = [node.module.split(".", 1)[1]]
-            else:
+        parts = todo.pop()
+        for depth in range(len(parts) + 1):                  # the packages' __init__ run first
+            path = path_of(parts[:depth])
+            if path is None or path in seen:
                 continue
-            todo.extend(n.split(".")[0] for n in names if path_of(n.split(".")[0]) is not None)
+            seen.add(path)
+            package = package_of(path)
+            for node in ast.walk(ast.parse(path.read_text())):
+                todo.extend(t for t in targets(node, package) if path_of(t) is not None)
     return sorted(seen | {root / "__init__.py"})

@@ -241,6 +241,11 @@ class ForwardModel:
         """Equilibrium of ``posture``; see :func:`solve_posture`."""
         return solve_posture(self, params, posture, start)
 
+    def after_fork(self):
+        """In a forked child: drop the parent's PARDISO analyses, so that this process makes its own."""
+        for assembler in self._assemblers.values():
+            assembler._pattern = None
+
     def solve_postures(self, params: Parameters, postures, starts=None, processes=1) -> list[PostureSolution]:
         """Equilibria of several postures, optionally in ``processes`` forked worker processes.
 
@@ -282,8 +287,7 @@ def _solve_task(index, tasks=None):
     """Solve one task of :meth:`ForwardModel.solve_postures`; a SolveError is returned, not raised."""
     model, params, posture, start = (tasks or _PARALLEL_TASKS)[index]
     if tasks is None:                                                # forked child: own PARDISO analysis
-        for assembler in model._assemblers.values():
-            assembler._pattern = None
+        model.after_fork()
     try:
         return model.solve(params, posture, start)
     except SolveError as err:

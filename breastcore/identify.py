@@ -204,8 +204,10 @@ def _check_branch(mm, target, sqrt_w, options, result, record, run):
     that remains is recorded in ``result.branch_drift`` (and logged). The history
     records each cold re-evaluation as an iteration at the same Λ.
 
-    Not continued: a run that did not converge (its iteration limit stands); a run
-    whose drift is at most the RMS relative residual ``sqrt(E/n)`` of its fit (the
+    Not continued: a run that did not converge (its iteration limit stands) or has
+    no iterations left; a run whose weighted RMS drift
+    ``sqrt(Σ w_i (M_warm/M_cold − 1)² / n)`` is at most the weighted RMS residual
+    ``sqrt(E/n)`` of its fit (the
     branches differ by less than the model already misses the data by, so chasing
     the drift cannot improve the estimate beyond its own uncertainty: on the
     medium-thin mesh against reference-mesh data, drifts of 1-2e-3 against a
@@ -229,10 +231,16 @@ def _check_branch(mm, target, sqrt_w, options, result, record, run):
         result.branch_drift = float(np.max(np.abs(mm.measure(warm) / mm.measure(cold) - 1.0)))
         if result.branch_drift <= BRANCH_TOL or not result.success:    # a failed run is not extended
             return
+        drift_rms = float(np.sqrt(np.mean((sqrt_w * (mm.measure(warm) / mm.measure(cold) - 1.0)) ** 2)))
         residual = float(np.sqrt(result.cost[-1] / target.size))
-        if result.branch_drift <= residual:
-            log.info("identify: warm and cold equilibria differ by %.2e at the estimate, less than the fit's "
-                     "RMS residual %.2e; kept", result.branch_drift, residual)
+        if drift_rms <= residual:
+            log.info("identify: warm and cold equilibria differ by %.2e (weighted RMS %.2e) at the estimate, "
+                     "no more than the fit's weighted RMS residual %.2e; kept", result.branch_drift, drift_rms,
+                     residual)
+            return
+        if result.iterations >= options.max_iterations:
+            log.warning("identify: warm and cold equilibria differ by %.2e at the estimate; no iterations left "
+                        "to continue from the cold ones", result.branch_drift)
             return
         if result.cost[-1] <= EXACT_FIT:                # the warm equilibria fit the data exactly
             log.info("identify: warm and cold equilibria differ by %.2e at the estimate; the warm ones "
@@ -286,10 +294,23 @@ def _levenberg_marquardt(mm, target, sqrt_w, initial, solutions, options, result
 
     cache[to_z(np.zeros_like(z0)).tobytes()] = (initial, solutions)
 
+    # scipy also calls back after an iteration whose last trial step it rejected while
+    # stopping (xtol): that one is neither counted nor recorded.
+    last = {"x": np.zeros_like(z0), "cost": 0.5 * result.cost[-1], "converged": False}
+
     def on_step(intermediate_result):
-        callback(_Point(to_z(intermediate_result.x)))
+        x, cost = intermediate_result.x, float(intermediate_result["cost"])
+        if np.array_equal(x, last["x"]):
+            return
+        step, x_norm, old_cost = np.linalg.norm(x - last["x"]), np.linalg.norm(last["x"]), last["cost"]
+        last.update(x=x.copy(), cost=cost)
+        callback(_Point(to_z(x)))
         result.iterations += 1
         if result.cost[-1] <= EXACT_FIT or result.iterations >= options.max_iterations:
+            # at the cap, scipy's own tests on this step (without ftol's step-quality ratio) say
+            # whether it would have stopped converged here anyway
+            last["converged"] = old_cost - cost < options.ftol * old_cost or \
+                step < options.xtol * (options.xtol + x_norm)
             raise StopIteration                           # scipy ≥ 1.16: ends with status −2
 
     out = least_squares(lambda d: fun(to_z(d)), np.zeros_like(z0), jac=lambda d, *_: jac(to_z(d)) * radius,
@@ -301,9 +322,12 @@ def _levenberg_marquardt(mm, target, sqrt_w, initial, solutions, options, result
         result.solutions = sols
         record(values, sols)
     exact = out.status == -2 and result.cost[-1] <= EXACT_FIT
-    result.success = bool(out.status > 0 or exact) and np.all(np.abs(out.fun) < FAILED_RESIDUAL)
+    converged_at_cap = out.status == -2 and not exact and last["converged"]
+    result.success = bool(out.status > 0 or exact or converged_at_cap) and np.all(np.abs(out.fun) < FAILED_RESIDUAL)
     if exact:
         result.message = f"exact fit: cost {result.cost[-1]:.2e} ≤ {EXACT_FIT:g}"
+    elif converged_at_cap:
+        result.message = f"ftol or xtol met at the iteration limit ({options.max_iterations})"
     elif out.status == -2:
         result.message = f"iteration limit ({options.max_iterations})"
     else:
@@ -318,6 +342,7 @@ class _Point:
 
 
 def _gauss_newton(mm, target, sqrt_w, initial, solutions, options, result, record):
+    result.success = False                      # until this run (a restart too) meets ε_m
     values, sols = np.array(initial, float), solutions
     cost = result.cost[-1]
     while result.iterations < options.max_iterations:

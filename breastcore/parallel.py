@@ -8,17 +8,21 @@ results cross the process boundary.
 from __future__ import annotations
 
 import multiprocessing as mp
+from concurrent.futures import ProcessPoolExecutor
 
 _FUNCTION = None          # the function of the running fork_map, inherited by its children
 
 
-def fork_map(function, count, processes=1):
+def fork_map(function, count, processes=1, after_fork=None):
     """``[function(i) for i in range(count)]``, in up to ``processes`` forked processes.
 
     Serial where ``fork`` is not available, in a daemon process, or for
     ``processes ≤ 1``. The results are in index order; ``function`` must return
     picklable values and must not depend on what earlier calls did to shared state
-    if the results are to be the same for every ``processes``.
+    if the results are to be the same for every ``processes``. ``after_fork`` runs
+    once in each child before its first call. An exception in ``function`` is
+    raised here; a child that dies (a crash in native code) raises
+    ``concurrent.futures.process.BrokenProcessPool`` instead of hanging.
     """
     processes = min(int(processes), count)
     if processes <= 1 or "fork" not in mp.get_all_start_methods() or mp.current_process().daemon:
@@ -26,8 +30,8 @@ def fork_map(function, count, processes=1):
     global _FUNCTION
     _FUNCTION = function
     try:
-        with mp.get_context("fork").Pool(processes) as pool:
-            return pool.map(_call, range(count), chunksize=1)
+        with ProcessPoolExecutor(processes, mp_context=mp.get_context("fork"), initializer=after_fork) as pool:
+            return list(pool.map(_call, range(count)))
     finally:
         _FUNCTION = None
 

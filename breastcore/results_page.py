@@ -122,7 +122,8 @@ def sensitivity_tables(ds) -> dict:
     """
     labels = [f"m{i + 1} {m}" for i, m in enumerate(ds["measurement"].values)]
     tables = {}
-    for key, title in (("finite", "finite ±10 % (ours)"), ("linearised", "linearised (ours)"),
+    delta = float(ds.attrs.get("sensitivity_delta", 0.1))
+    for key, title in (("finite", f"finite ±{delta:.0%} (ours)"), ("linearised", "linearised (ours)"),
                        ("difference", "finite − linearised (ours)")):
         if f"sensitivity_{key}" in ds:
             tables[title] = pd.DataFrame(ds[f"sensitivity_{key}"].values.T, index=labels, columns=IDENTIFIED)
@@ -133,8 +134,9 @@ def sensitivity_tables(ds) -> dict:
 
 
 def _weakest(table, count=5):
-    """The ``count`` measurements with the smallest row norm (least influence on Λ)."""
-    norms = np.sqrt(np.nansum(table.values ** 2, axis=1))
+    """The ``count`` measurements with the smallest row norm (least influence on Λ); NaN rows excluded."""
+    norms = np.sqrt(np.sum(table.values ** 2, axis=1))
+    norms[~np.isfinite(norms)] = np.inf
     return ", ".join(table.index[i].split()[0] for i in sorted(np.argsort(norms)[:count]))
 
 
@@ -142,9 +144,11 @@ def sensitivity_section(name, ds):
     a = ds.attrs
     lines = [f"### Scene `{name}`: sensitivity of Λ to each measurement (6×15, shown transposed)", "",
              f"Relative sensitivities (m_i/Λ_j) ∂Λ_j/∂m_i at the estimate of the scene's first run, on the "
-             f"{a.get('sensitivity_mesh', '?')} mesh. Measurements m1–m5 are standing, m6–m10 bent 45°, m11–m15 on "
-             "all fours, each in the order volume, area, height, frontal depth, back depth.",
-             f"Linearised (JᵀJ)⁻¹Jᵀ: rank {a.get('sensitivity_linearised_rank', '?')}, condition number "
+             f"{a.get('sensitivity_mesh', '?')} mesh. Ours: m1–m5 are standing, m6–m10 bent 45°, m11–m15 on "
+             "all fours, each in the order volume, area, height, frontal depth, back depth; the paper does not "
+             "print its order of m1–m15, so its rows are matched to ours by number only. Ours are signed; the "
+             "paper prints magnitudes.",
+             f"Linearised (JᵀWJ)⁻¹JᵀW: rank {a.get('sensitivity_linearised_rank', '?')}, condition number "
              f"{float(a.get('sensitivity_linearised_condition', np.nan)):.3g}."]
     if "sensitivity_finite_rank" in a:
         lines.append(f"Finite ±{float(a.get('sensitivity_delta', 0.1)):.0%}: rank {a['sensitivity_finite_rank']}, "

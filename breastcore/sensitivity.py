@@ -50,7 +50,7 @@ def finite_sensitivity(mm, target, estimate, options, delta=0.10, processes=1):
         limited = res.iterations >= options.max_iterations and not res.success
         return (res.estimate if res.success or limited else None), limited
 
-    outcomes = fork_map(reidentify, 2 * n, processes)
+    outcomes = fork_map(reidentify, 2 * n, processes, after_fork=mm.model.after_fork)
     S = np.full((len(IDENTIFIED), n), np.nan)
     failures = 0
     for i in range(n):

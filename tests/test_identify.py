@@ -196,3 +196,25 @@ def test_a_branch_drift_below_the_fit_residual_is_not_chased(drift, restarts):
     assert 1e-3 < np.sqrt(result.cost[-1] / 15) < 5e-2
     assert result.branch_restarts == restarts
     assert result.branch_drift == pytest.approx(drift / (1 + drift), rel=1e-6)
+
+
+@pytest.mark.parametrize("method", ["lm", "gauss-newton"])
+@pytest.mark.parametrize("drift", [0.0, 5e-2])
+def test_iteration_cap_spans_restarts_and_success_means_converged(method, drift):
+    """For every cap: at most that many iterations over all runs; success iff a convergence test was met.
+
+    Includes a run that converges exactly at its cap (success, although stopped by the cap)
+    and Gauss–Newton restarts that end at the cap (failure, although the first run had converged).
+    """
+    noise = 0.01 * np.where(np.arange(15) % 2 == 0, 1.0, -1.0)
+    mm = DriftingLinearModel(drift)
+    target = (mm.measure(mm.solve(TRUTH)).ravel() * (1 + noise)).reshape(3, 5)
+    free = identify(mm, target, TRUTH * 1.2, IdentificationOptions(method=method))
+    assert free.success
+    for cap in range(1, free.iterations + 2):
+        result = identify(DriftingLinearModel(drift), target, TRUTH * 1.2,
+                          IdentificationOptions(method=method, max_iterations=cap))
+        assert result.iterations <= cap
+        assert result.success == (not result.message.startswith("iteration limit")), (cap, result.message)
+        if cap >= free.iterations and drift == 0:
+            assert result.success, (cap, result.message)

@@ -49,6 +49,6 @@ def test_opt_in_config_runs_end_to_end_at_a_tiny_size(tmp_path, name):
     if name == "paper":
         assert "the paper's Table 2 layout" in page and "iterations 15–25" in page
         assert (tmp_path / "results/sensitivity").is_dir()       # the ±10 % and linearised matrices
-        for table in ("finite ±10 % (ours)", "linearised (ours)", "finite − linearised (ours)", "paper (magnitudes"):
+        for table in ("finite ±10% (ours)", "linearised (ours)", "finite − linearised (ours)", "paper (magnitudes"):
             assert f"**{table}" in page, table
         assert "rank" in page and "condition number" in page

@@ -38,3 +38,58 @@ def test_finite_sensitivity_tends_to_the_linearised_one_as_delta_shrinks():
                                               IdentificationOptions(max_iterations=10), delta=1e-3, processes=2)
     assert failures == 0 and limited == 0
     assert np.abs(S - linear).max() <= 1e-3 * np.abs(linear).max()
+
+
+def test_fork_map_raises_the_error_of_a_call_and_survives_a_dead_child():
+    from concurrent.futures.process import BrokenProcessPool
+
+    import pytest
+
+    def fails_at_three(i):
+        if i == 3:
+            raise ValueError("three")
+        return i
+
+    with pytest.raises(ValueError, match="three"):
+        fork_map(fails_at_three, 5, processes=2)
+    with pytest.raises(BrokenProcessPool):
+        fork_map(lambda i: __import__("os")._exit(1) if i == 1 else i, 3, processes=2)
+
+
+class LinearModel:
+    """``M(Λ) = M₀ exp(A ln(Λ/Λ̄))``: a stand-in MeasurementModel for the bookkeeping of finite_sensitivity."""
+
+    warm_radius = 0.0
+    model = SimpleNamespace(after_fork=lambda: None)
+
+    def __init__(self):
+        self.A = np.random.default_rng(3).normal(size=(15, 6))
+        self.M0 = np.linspace(1.0, 2.0, 15)
+        self.solves = 0
+
+    def solve(self, values, remember=True, cold=False):
+        return {"values": np.array(values, float)}
+
+    def remember(self, solutions, values):
+        pass
+
+    def measure(self, solutions):
+        return (self.M0 * np.exp(self.A @ np.log(solutions["values"] / TRUTH))).reshape(3, 5)
+
+    def implicit_jacobian(self, values, solutions):
+        M = self.measure(solutions).reshape(15)
+        return (M[:, None] * self.A / np.asarray(values)[None, :]).reshape(3, 5, 6)
+
+
+def test_finite_sensitivity_is_the_same_in_any_number_of_processes_and_counts_limited_runs():
+    mm = LinearModel()
+    target = SimpleNamespace(values=mm.measure(mm.solve(TRUTH)), weights=None)
+    runs = {p: finite_sensitivity(mm, target, TRUTH, IdentificationOptions(max_iterations=2), processes=p)
+            for p in (1, 2)}
+    assert np.array_equal(runs[1][0], runs[2][0]) and runs[1][1:] == runs[2][1:]
+    S, failures, limited = runs[1]
+    assert failures == 0 and 0 < limited <= 30           # 2 iterations cannot fit ±10 % data: kept, counted
+    assert np.all(np.isfinite(S))
+    full, _, none_limited = finite_sensitivity(mm, target, TRUTH, IdentificationOptions())
+    assert none_limited == 0
+    assert np.abs(S - full).max() > 0                      # the capped runs did stop early

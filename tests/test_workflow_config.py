@@ -117,19 +117,34 @@ def test_max_starts_keeps_the_first_guesses_of_the_full_draw():
 
 
 def test_compute_hash_covers_exactly_the_modules_the_compute_rules_import(tmp_path):
+    import subprocess
+    import sys
     from pathlib import Path
 
     import breastcore
     from breastcore import _imported_modules
 
     (tmp_path / "__init__.py").write_text("")
-    (tmp_path / "a.py").write_text("from .b import f\n")
-    (tmp_path / "b.py").write_text("def f():\n    from breastcore.c import g\n")
-    (tmp_path / "c.py").write_text("import numpy\nfrom . import __version__\n")
+    (tmp_path / "a.py").write_text("from .b import f\nfrom . import c\n")
+    (tmp_path / "b.py").write_text("def f():\n    from breastcore.sub.d import g\n")
+    (tmp_path / "c.py").write_text("import numpy\nfrom . import __version__\nimport breastcore.e\n")
+    (tmp_path / "e.py").write_text("from breastcore import h\n")
+    (tmp_path / "h.py").write_text("")
+    (tmp_path / "sub").mkdir()
+    (tmp_path / "sub" / "__init__.py").write_text("")
+    (tmp_path / "sub" / "d.py").write_text("from .k import x\nfrom ..h import y\n")
+    (tmp_path / "sub" / "k.py").write_text("")
     (tmp_path / "report.py").write_text("from .a import f\n")
-    assert [p.name for p in _imported_modules(tmp_path, ["a"])] == ["__init__.py", "a.py", "b.py", "c.py"]
+    closure = [str(p.relative_to(tmp_path)) for p in _imported_modules(tmp_path, ["a"])]
+    assert closure == ["__init__.py", "a.py", "b.py", "c.py", "e.py", "h.py",
+                       str(Path("sub/__init__.py")), str(Path("sub/d.py")), str(Path("sub/k.py"))]
 
-    names = {p.name for p in _imported_modules(Path(breastcore.__file__).parent, ["pipeline", "logs", "workflow_plan"])}
-    assert {"pipeline.py", "solver.py", "kernels.py", "saddle.py", "logs.py", "workflow_plan.py"} <= names
+    root = Path(breastcore.__file__).parent
+    entries = ["pipeline", "logs", "workflow_plan"]
+    names = {str(p.relative_to(root)) for p in _imported_modules(root, entries)}
     assert not names & {"results_page.py", "plots.py", "scene.py"}
-    assert breastcore.source_hash("pipeline") != breastcore.source_hash()
+    # every package module that importing the entries loads is in the closure
+    code = "import sys, breastcore.pipeline, breastcore.logs, breastcore.workflow_plan; " \
+           "print(' '.join(m for m in sys.modules if m.startswith('breastcore.')))"
+    loaded = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout.split()
+    assert loaded and {m.split(".", 1)[1].replace(".", "/") + ".py" for m in loaded} <= names
