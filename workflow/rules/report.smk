@@ -1,3 +1,4 @@
+import shlex
 # Figures and tables of each scene, registered for `snakemake --report results/report.html`.
 rule shape_picture:
     input: lambda w: PLAN.shape_source(w.scene)
@@ -107,6 +108,7 @@ use rule stability_map as stability_table with:
 
 
 CONFIG_FILES = " ".join(os.path.relpath(f, workflow.basedir) for f in workflow.overwrite_configfiles)
+CONFIG_ARGS = " ".join(shlex.quote(a) for a in workflow.config_settings.config_args or [])
 
 
 rule results_page:
@@ -115,7 +117,8 @@ rule results_page:
     log: f"{RESULTS}/logs/results_page.log"
     benchmark: f"{RESULTS}/benchmarks/results_page.tsv"
     params:
-        commands=["snakemake --cores 2 results_page" + (f" --configfile {CONFIG_FILES}" if CONFIG_FILES else "")],
+        commands=["snakemake --cores 2 results_page" + (f" --configfile {CONFIG_FILES}" if CONFIG_FILES else "")
+                  + (f" --config {CONFIG_ARGS}" if CONFIG_ARGS else "")],
         code=CODE,
     conda: "../envs/breastcore.yaml"
     script: "../scripts/results_page.py"
