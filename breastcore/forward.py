@@ -11,7 +11,6 @@ from __future__ import annotations
 
 import dataclasses
 import logging
-import multiprocessing as mp
 import time
 from dataclasses import dataclass, field
 
@@ -20,6 +19,7 @@ import numpy as np
 from .assembly import FreeDofAssembler
 from .energy import BulkNeoHookean, Chassaignac, Composite, Gravity, SkinMembrane
 from .geometry import CapMap
+from .parallel import fork_map
 from .mesh import CapMesh, refold
 from .parameters import Parameters
 from .postures import Posture
@@ -262,36 +262,18 @@ class ForwardModel:
         """
         postures = list(postures)
         starts = starts or {}
-        tasks = [(self, params, p, starts.get(p.name)) for p in postures]
-        processes = min(int(processes or 1), len(postures))
-        if processes > 1 and "fork" in mp.get_all_start_methods() and not mp.current_process().daemon:
-            global _PARALLEL_TASKS
-            _PARALLEL_TASKS = tasks
+
+        def solve(index):                                  # a SolveError is returned, so that all run
             try:
-                with mp.get_context("fork").Pool(processes) as pool:
-                    outcomes = pool.map(_solve_task, range(len(tasks)), chunksize=1)
-            finally:
-                _PARALLEL_TASKS = None
-        else:
-            outcomes = [_solve_task(i, tasks) for i in range(len(tasks))]
+                return self.solve(params, postures[index], starts.get(postures[index].name))
+            except SolveError as err:
+                return err
+
+        outcomes = fork_map(solve, len(postures), processes or 1, after_fork=self.after_fork)
         for outcome in outcomes:
             if isinstance(outcome, SolveError):
                 raise outcome
         return outcomes
-
-
-_PARALLEL_TASKS = None
-
-
-def _solve_task(index, tasks=None):
-    """Solve one task of :meth:`ForwardModel.solve_postures`; a SolveError is returned, not raised."""
-    model, params, posture, start = (tasks or _PARALLEL_TASKS)[index]
-    if tasks is None:                                                # forked child: own PARDISO analysis
-        model.after_fork()
-    try:
-        return model.solve(params, posture, start)
-    except SolveError as err:
-        return err
 
 
 def _minimise(model, problem, z, tolerance):
