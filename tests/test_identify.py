@@ -14,6 +14,8 @@ from breastcore.observation import MeasurementModel
 from breastcore.parameters import Parameters
 from breastcore.postures import paper_postures
 
+from linear_model import LinearModel  # tests/linear_model.py
+
 TRUTH = np.array(Parameters().identified())
 
 
@@ -154,41 +156,10 @@ def test_cold_solves_in_two_processes_equal_serial_ones_bit_for_bit(problem):
         MeasurementModel(mm.model, Parameters(), paper_postures(), processes=0)
 
 
-class DriftingLinearModel:
-    """``M(Λ) = M₀ exp(A ln(Λ/Λ̄))``, whose cold solves read every measurement ``1 + drift`` times higher.
-
-    A stand-in for a mesh whose warm and cold equilibria differ (two branches).
-    """
-
-    warm_radius = 0.05
-
-    def __init__(self, drift):
-        rng = np.random.default_rng(3)
-        self.A = rng.normal(size=(15, 6))
-        self.M0 = np.linspace(1.0, 2.0, 15)
-        self.drift = drift
-        self.solves = 0
-
-    def solve(self, values, remember=True, cold=False):
-        self.solves += 1
-        return {"values": np.array(values, float), "cold": cold}
-
-    def remember(self, solutions, values):
-        pass
-
-    def measure(self, solutions):
-        M = self.M0 * np.exp(self.A @ np.log(solutions["values"] / TRUTH))
-        return (M * (1 + self.drift if solutions["cold"] else 1.0)).reshape(3, 5)
-
-    def implicit_jacobian(self, values, solutions):
-        M = self.measure(solutions).reshape(15)
-        return (M[:, None] * self.A / np.asarray(values)[None, :]).reshape(3, 5, 6)
-
-
 @pytest.mark.parametrize("drift, restarts", [(1e-3, 0), (5e-2, 2)])
 def test_a_branch_drift_below_the_fit_residual_is_not_chased(drift, restarts):
     """Data 1 % off the model (RMS residual ≈ 9e-3): a 1e-3 drift is kept, a 5e-2 drift is chased."""
-    mm = DriftingLinearModel(drift)
+    mm = LinearModel(drift)
     noise = 0.01 * np.where(np.arange(15) % 2 == 0, 1.0, -1.0)
     target = (mm.measure(mm.solve(TRUTH)).ravel() * (1 + noise)).reshape(3, 5)
     result = identify(mm, target, TRUTH * 1.2)
@@ -207,12 +178,12 @@ def test_iteration_cap_spans_restarts_and_success_means_converged(method, drift)
     and Gauss–Newton restarts that end at the cap (failure, although the first run had converged).
     """
     noise = 0.01 * np.where(np.arange(15) % 2 == 0, 1.0, -1.0)
-    mm = DriftingLinearModel(drift)
+    mm = LinearModel(drift)
     target = (mm.measure(mm.solve(TRUTH)).ravel() * (1 + noise)).reshape(3, 5)
     free = identify(mm, target, TRUTH * 1.2, IdentificationOptions(method=method))
     assert free.success
     for cap in range(1, free.iterations + 2):
-        result = identify(DriftingLinearModel(drift), target, TRUTH * 1.2,
+        result = identify(LinearModel(drift), target, TRUTH * 1.2,
                           IdentificationOptions(method=method, max_iterations=cap))
         assert result.iterations <= cap
         assert result.success == (not result.message.startswith("iteration limit")), (cap, result.message)

@@ -14,6 +14,8 @@ from breastcore.postures import paper_postures
 from breastcore.sensitivity import finite_sensitivity
 from breastcore.uncertainty import linearised_sensitivity
 
+from linear_model import LinearModel  # tests/linear_model.py
+
 TRUTH = np.array([0.0562, 0.05, 1000.0, 150.0, 8000.0, 1600.0])
 
 
@@ -54,31 +56,6 @@ def test_fork_map_raises_the_error_of_a_call_and_survives_a_dead_child():
         fork_map(fails_at_three, 5, processes=2)
     with pytest.raises(BrokenProcessPool):
         fork_map(lambda i: __import__("os")._exit(1) if i == 1 else i, 3, processes=2)
-
-
-class LinearModel:
-    """``M(Λ) = M₀ exp(A ln(Λ/Λ̄))``: a stand-in MeasurementModel for the bookkeeping of finite_sensitivity."""
-
-    warm_radius = 0.0
-    model = SimpleNamespace(after_fork=lambda: None)
-
-    def __init__(self):
-        self.A = np.random.default_rng(3).normal(size=(15, 6))
-        self.M0 = np.linspace(1.0, 2.0, 15)
-        self.solves = 0
-
-    def solve(self, values, remember=True, cold=False):
-        return {"values": np.array(values, float)}
-
-    def remember(self, solutions, values):
-        pass
-
-    def measure(self, solutions):
-        return (self.M0 * np.exp(self.A @ np.log(solutions["values"] / TRUTH))).reshape(3, 5)
-
-    def implicit_jacobian(self, values, solutions):
-        M = self.measure(solutions).reshape(15)
-        return (M[:, None] * self.A / np.asarray(values)[None, :]).reshape(3, 5, 6)
 
 
 def test_finite_sensitivity_is_the_same_in_any_number_of_processes_and_counts_limited_runs():
