@@ -1,4 +1,4 @@
-"""The paper's finite sensitivity (re-identification with m_i × (1 ± δ)) and fork_map."""
+"""The paper's finite sensitivity (re-identification with m_i × (1 ± δ))."""
 
 from types import SimpleNamespace
 
@@ -8,7 +8,6 @@ from breastcore.forward import ForwardModel
 from breastcore.identify import IdentificationOptions
 from breastcore.mesh import mesh_level
 from breastcore.observation import MeasurementModel
-from breastcore.parallel import fork_map
 from breastcore.parameters import Parameters
 from breastcore.postures import paper_postures
 from breastcore.sensitivity import finite_sensitivity
@@ -17,13 +16,6 @@ from breastcore.uncertainty import linearised_sensitivity
 from linear_model import LinearModel  # tests/linear_model.py
 
 TRUTH = np.array([0.0562, 0.05, 1000.0, 150.0, 8000.0, 1600.0])
-
-
-def test_fork_map_keeps_order_and_closes_over_unpicklable_state():
-    state = {"lock": __import__("threading").Lock(), "offset": 10}   # a Lock cannot be pickled
-    serial = fork_map(lambda i: (i + state["offset"], i * i), 7, processes=1)
-    forked = fork_map(lambda i: (i + state["offset"], i * i), 7, processes=2)
-    assert forked == serial == [(i + 10, i * i) for i in range(7)]
 
 
 def test_finite_sensitivity_tends_to_the_linearised_one_as_delta_shrinks():
@@ -40,22 +32,6 @@ def test_finite_sensitivity_tends_to_the_linearised_one_as_delta_shrinks():
                                               IdentificationOptions(max_iterations=10), delta=1e-3, processes=2)
     assert failures == 0 and limited == 0
     assert np.abs(S - linear).max() <= 1e-3 * np.abs(linear).max()
-
-
-def test_fork_map_raises_the_error_of_a_call_and_survives_a_dead_child():
-    from concurrent.futures.process import BrokenProcessPool
-
-    import pytest
-
-    def fails_at_three(i):
-        if i == 3:
-            raise ValueError("three")
-        return i
-
-    with pytest.raises(ValueError, match="three"):
-        fork_map(fails_at_three, 5, processes=2)
-    with pytest.raises(BrokenProcessPool):
-        fork_map(lambda i: __import__("os")._exit(1) if i == 1 else i, 3, processes=2)
 
 
 def test_finite_sensitivity_is_the_same_in_any_number_of_processes_and_counts_limited_runs():
