@@ -1,13 +1,16 @@
 """Sparse assembly of element Hessian blocks into the free-dof stiffness matrix.
 
-The CSR pattern is computed once per mesh and boundary condition; each assembly is
-then one ``np.bincount`` per term, with no Python loop over elements.
+The CSR pattern is computed once per mesh and boundary condition, with a table of
+the CSR position of every element-block entry; each assembly is then one compiled
+pass per term (:mod:`breastcore.compiled`).
 """
 
 from __future__ import annotations
 
 import numpy as np
 import scipy.sparse as sp
+
+from .compiled import scatter_blocks
 
 
 def element_dofs(connectivity):
@@ -36,16 +39,16 @@ class FreeDofAssembler:
         number[free] = np.arange(self.n_free)
         self.free_index = number
         keys = []
-        self._keep = []
         for conn in connectivities:
             dofs = number[element_dofs(conn)]
-            rows = np.repeat(dofs[:, :, None], dofs.shape[1], axis=2).ravel()
-            cols = np.repeat(dofs[:, None, :], dofs.shape[1], axis=1).ravel()
-            keep = (rows >= 0) & (cols >= 0)
-            self._keep.append(keep)
-            keys.append(rows[keep] * self.n_free + cols[keep])
-        unique = np.unique(np.concatenate(keys)) if keys else np.zeros(0, np.int64)
-        self._positions = [np.searchsorted(unique, k) for k in keys]
+            m = dofs.shape[1]
+            rows = np.broadcast_to(dofs[:, :, None], (len(dofs), m, m))
+            cols = np.broadcast_to(dofs[:, None, :], (len(dofs), m, m))
+            keys.append(np.where((rows >= 0) & (cols >= 0), rows * self.n_free + cols, -1))
+        kept = np.concatenate([k[k >= 0] for k in keys]) if keys else np.zeros(0, np.int64)
+        unique = np.unique(kept)
+        #: Per term, ``(n, 3k, 3k)`` int32: the index in the CSR data of each block entry, −1 if dropped.
+        self.positions = [np.where(k >= 0, np.searchsorted(unique, k), -1).astype(np.int32) for k in keys]
         self.indices = (unique % self.n_free).astype(np.int32)
         row_of = unique // self.n_free
         self.indptr = np.searchsorted(row_of, np.arange(self.n_free + 1)).astype(np.int32)
@@ -63,8 +66,25 @@ class FreeDofAssembler:
     def assemble(self, blocks):
         """CSR matrix from ``[(connectivity, (n, 3k, 3k) blocks)]`` in constructor order."""
         data = np.zeros(self.nnz)
-        for (_, H), keep, pos in zip(blocks, self._keep, self._positions):
-            data += np.bincount(pos, weights=H.ravel()[keep], minlength=self.nnz)
+        for (_, H), positions in zip(blocks, self.positions):
+            scatter_blocks(data, positions, np.ascontiguousarray(H, dtype=float))
+        return self._matrix(data)
+
+    def assemble_terms(self, terms, x):
+        """CSR Hessian of ``terms`` (in constructor order) at node positions ``x``.
+
+        A term with ``scatter_hessian(data, positions, x)`` adds its entries straight
+        into the CSR data; the others give ``element_hessians(x)`` blocks.
+        """
+        data = np.zeros(self.nnz)
+        for term, positions in zip(terms, self.positions):
+            if hasattr(term, "scatter_hessian"):
+                term.scatter_hessian(data, positions, x)
+            else:
+                scatter_blocks(data, positions, np.ascontiguousarray(term.element_hessians(x), dtype=float))
+        return self._matrix(data)
+
+    def _matrix(self, data):
         return sp.csr_matrix((data, self.indices, self.indptr), shape=(self.n_free, self.n_free))
 
     def restrict(self, vector):

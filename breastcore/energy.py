@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from . import kernels
+from . import compiled, kernels
 
 #: Edge-to-node map of a triangle: edge a = Σ_n S[a, n] x_n.
 _TRIANGLE_EDGES = np.array([[-1.0, 1.0, 0.0], [-1.0, 0.0, 1.0]])
@@ -89,10 +89,13 @@ class BulkNeoHookean:
 
     Notes
     -----
-    Performance: ``F`` is a batched matrix product, ``det F`` and ``F⁻¹`` come from
-    the cofactor matrix in closed form, element forces are scattered with one
-    ``np.bincount``, and the Hessian blocks are built by broadcasting (no generic
-    5-index ``einsum``); the reference quantities are computed once here.
+    Performance: :meth:`value`, :meth:`gradient` and :meth:`scatter_hessian` (what
+    a Newton iteration calls) are compiled loops over the tets
+    (:mod:`breastcore.compiled`), with ``det F`` and ``F⁻¹`` from the cofactor
+    matrix in closed form; the Hessian goes straight into the CSR data. The numpy
+    versions (:meth:`element_energies`, :meth:`element_gradients`,
+    :meth:`element_hessians`: blocks built by broadcasting) are the reference the
+    compiled loops are tested against, and give the blocks of the PSD projection.
     """
 
     def __init__(self, reference, tets, lam, mu):
@@ -127,29 +130,40 @@ class BulkNeoHookean:
         return F, J, trace_C, cof
 
     def value(self, x):
-        F, J, trace_C, _ = self._kinematics(x)
-        W = kernels.bulk_neo_hookean(J, trace_C, self.lam, self.mu)[0]
-        return _dot(self.volume, W)
+        """Energy in J (``+inf`` if a tet is inverted); compiled (:func:`breastcore.compiled.bulk_energy`)."""
+        return compiled.bulk_energy(np.ascontiguousarray(x, dtype=float), self.connectivity, self.shape_gradients,
+                                    self.volume, self.lam, self.mu)
 
-    def checked_value(self, x):
-        """``value(x)``, or ``+inf`` if a tet is inverted (one pass instead of two)."""
-        F, J, trace_C, _ = self._kinematics(x)
-        if not np.all(J > 0):
-            return np.inf
-        W = kernels.bulk_neo_hookean(J, trace_C, self.lam, self.mu)[0]
-        return _dot(self.volume, W)
+    checked_value = value
 
     def _spatial_gradients(self, cof, J):
         # Q_a = ∇N_a F⁻¹ with F⁻¹ = cof(F)ᵀ / J
         return np.matmul(self.shape_gradients, np.swapaxes(cof, 1, 2)) / J[:, None, None]
 
     def gradient(self, x):
+        out = np.zeros(np.shape(x))
+        compiled.add_bulk_gradient(out, np.ascontiguousarray(x, dtype=float), self.connectivity,
+                                   self.shape_gradients, self.volume, self.lam, self.mu)
+        return out
+
+    def element_gradients(self, x):
+        """Reference numpy version of :meth:`gradient`: per-tet nodal forces ``(T, 4, 3)``, N."""
         F, J, trace_C, cof = self._kinematics(x)
         _, c_inv, _, _ = kernels.bulk_neo_hookean(J, trace_C, self.lam, self.mu)
         Q = self._spatial_gradients(cof, J)
         g_el = self.mu * np.matmul(self.shape_gradients, np.swapaxes(F, 1, 2)) + c_inv[:, None, None] * Q
-        g_el *= self.volume[:, None, None]
-        return _scatter(self._dofs, g_el, x.shape)
+        return g_el * self.volume[:, None, None]
+
+    def element_energies(self, x):
+        """Reference numpy version of :meth:`value`: ``|τ| W(F_τ)`` per tet ``(T,)``, J (NaN if inverted)."""
+        F, J, trace_C, _ = self._kinematics(x)
+        with np.errstate(invalid="ignore"):
+            return self.volume * kernels.bulk_neo_hookean(J, trace_C, self.lam, self.mu)[0]
+
+    def scatter_hessian(self, data, positions, x):
+        """Add :meth:`element_hessians` into CSR ``data`` at ``positions`` (compiled, no blocks)."""
+        compiled.scatter_bulk_hessian(data, positions, np.ascontiguousarray(x, dtype=float), self.connectivity,
+                                      self.shape_gradients, self.volume, self.lam, self.mu)
 
     def element_hessians(self, x):
         F, J, trace_C, cof = self._kinematics(x)
@@ -376,6 +390,11 @@ class Composite:
                 H = project_psd(H)
             blocks.append((term.connectivity, H))
         return blocks
+
+    @property
+    def nonlinear_terms(self):
+        """The terms with Hessian blocks, in :meth:`hessian_blocks` order."""
+        return tuple(term for term in self.terms if term.connectivity is not None)
 
 
 def project_psd(blocks):

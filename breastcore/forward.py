@@ -177,7 +177,10 @@ class EquilibriumProblem:
         return self.free(self.energy.gradient(self.full(z)))
 
     def hessian(self, z, project=False):
-        return self.assembler.assemble(self.energy.hessian_blocks(self.full(z), project))
+        x = self.full(z)
+        if project:
+            return self.assembler.assemble(self.energy.hessian_blocks(x, project=True))
+        return self.assembler.assemble_terms(self.energy.nonlinear_terms, x)
 
     @property
     def pattern(self):
