@@ -14,6 +14,8 @@ The composite sums terms; sparse assembly lives in :mod:`breastcore.assembly`.
 
 from __future__ import annotations
 
+import copy
+
 import numpy as np
 
 from . import compiled, kernels
@@ -198,6 +200,7 @@ class SkinMembrane:
     def __init__(self, reference, triangles, lam, mu, thickness):
         self.connectivity = np.asarray(triangles)
         self.lam, self.mu = float(lam) * thickness, float(mu) * thickness
+        self.thickness = float(thickness)
         E = _TRIANGLE_EDGES @ reference[self.connectivity]                  # (S,2,3)
         G = np.einsum("nai,nbi->nab", E, E)
         self.det_G = np.linalg.det(G)
@@ -348,6 +351,18 @@ class Chassaignac:
         eye = np.eye(3)[None]
         H = eye / root[:, None, None] - np.einsum("ni,nj->nij", u, u) / root[:, None, None] ** 3
         return self.weight[:, None, None] * H
+
+
+def modulus_gradient(term, attribute, x):
+    """``∂ gradient(x) / ∂ term.<attribute>`` (N per unit of the attribute), for a term linear in it.
+
+    The bulk and skin energies are linear in their Lamé moduli (``lam``, ``mu``),
+    so this is the gradient of a copy of the term with that modulus 1 and the other 0.
+    """
+    unit = copy.copy(term)
+    unit.lam = unit.mu = 0.0
+    setattr(unit, attribute, 1.0)
+    return unit.gradient(x)
 
 
 class Composite:

@@ -238,7 +238,7 @@ class ForwardModel:
     def tangent(self, params, posture, position):
         """Exact free-dof Hessian at ``position``, factorised (for sensitivities)."""
         problem = self.problem(params, posture)
-        return problem, Factorization(problem.hessian(problem.free(position)))
+        return problem, Factorization(problem.hessian(problem.free(position)), problem.pattern)
 
     def solve(self, params: Parameters, posture: Posture, start=None) -> PostureSolution:
         """Equilibrium of ``posture``; see :func:`solve_posture`."""

@@ -13,9 +13,15 @@ from __future__ import annotations
 
 import numpy as np
 
+from .energy import BulkNeoHookean, SkinMembrane, modulus_gradient
 from .forward import ForwardModel
 from .measure import QUANTITIES, measure
 from .parameters import IDENTIFIED, Parameters
+
+
+#: The energy term and Lamé attribute that each material parameter scales.
+_MODULI = {"lambda_breast": (BulkNeoHookean, "lam"), "mu_breast": (BulkNeoHookean, "mu"),
+           "lambda_skin": (SkinMembrane, "lam"), "mu_skin": (SkinMembrane, "mu")}
 
 
 class MeasurementModel:
@@ -97,10 +103,11 @@ class MeasurementModel:
 
         Notes
         -----
-        ``∂g/∂p`` is a central difference of the free-dof gradient at fixed free dofs
-        (exact to round-off for the moduli, on which ``g`` depends linearly; second
-        order for R and H, which move the reference nodes and the fold through the
-        smooth map). ``∂M/∂x·dx/dp`` is a central directional difference of the
+        ``∂g/∂p`` is exact for the four moduli, on which ``g`` depends linearly
+        (:func:`~breastcore.energy.modulus_gradient`; no new problem is built), and a
+        central difference of the free-dof gradient at fixed free dofs for R and H,
+        which move the reference nodes and the fold through the smooth map (second
+        order). ``∂M/∂x·dx/dp`` is a central directional difference of the
         measurement functions, which are smooth by construction.
         """
         params = self.params(values)
@@ -110,6 +117,15 @@ class MeasurementModel:
             problem, factor = self.model.tangent(params, posture, x)
             z = problem.free(x)
             for j, name in enumerate(IDENTIFIED):
+                if name in _MODULI:
+                    kind, attribute = _MODULI[name]
+                    term = next(t for t in problem.energy.terms if isinstance(t, kind))
+                    scale = getattr(term, "thickness", 1.0)          # skin moduli enter as λ_s t_s, μ_s t_s
+                    dx = np.zeros_like(x)
+                    dx[problem.assembler.free.reshape(-1, 3)] = \
+                        -factor.solve(scale * problem.free(modulus_gradient(term, attribute, x)))
+                    out[i, :, j] = self._directional(x, dx)
+                    continue
                 h = rel_step * values[j]
                 plus = self.model.problem(params.replace(**{name: values[j] + h}), posture)
                 minus = self.model.problem(params.replace(**{name: values[j] - h}), posture)

@@ -119,3 +119,22 @@ def test_psd_projection_clamps_only_negative_modes(rng):
     assert np.linalg.eigvalsh(P).min() > -1e-12
     B = np.einsum("nij,nkj->nik", A, A)   # already PSD: unchanged
     assert np.array_equal(project_psd(B), B)
+
+
+@pytest.mark.parametrize("which, attribute", [(0, "lam"), (0, "mu"), (1, "lam"), (1, "mu")])
+def test_modulus_gradient_is_the_derivative_of_the_gradient_in_that_modulus(small_box, rng, which, attribute):
+    """The implicit Jacobian's ∂g/∂p for the moduli: exact, checked against a central difference."""
+    import copy
+
+    from breastcore.energy import modulus_gradient
+
+    nodes, tets, top, bottom = small_box
+    term = make_terms(nodes, tets, top, bottom)[which]
+    x = deformed(nodes, rng)
+    h = 1e-3 * getattr(term, attribute)
+    plus, minus = copy.copy(term), copy.copy(term)
+    setattr(plus, attribute, getattr(term, attribute) + h)
+    setattr(minus, attribute, getattr(term, attribute) - h)
+    central = (plus.gradient(x) - minus.gradient(x)) / (2 * h)
+    assert rel_err(modulus_gradient(term, attribute, x), central) <= 1e-9
+    assert np.abs(central).max() > 0
