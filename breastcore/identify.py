@@ -60,6 +60,10 @@ class IdentificationOptions:
         evaluations (trial points, rejected ones included).
     noise : float
         Relative 1σ measurement noise of the uncertainty model (0.10 = 10 %).
+    fixed_iterations : bool
+        Gauss–Newton only: run exactly ``max_iterations`` iterations without the
+        ε_m test, as the paper's parameter-evolution runs do ("after 25
+        iterations"). The result is then never labelled converged.
     initial_trust_radius : float
         LM only: the first trust-region radius, in the log/logit variables (0.5:
         moduli scaled by at most e^0.5 ≈ 1.65 in the first trial step). scipy's
@@ -79,6 +83,7 @@ class IdentificationOptions:
     max_iterations: int = 50
     noise: float = 0.10
     initial_trust_radius: float = 0.5
+    fixed_iterations: bool = False
 
     def __post_init__(self):
         if self.method not in ("lm", "gauss-newton"):
@@ -87,6 +92,8 @@ class IdentificationOptions:
             raise ValueError(f"jacobian must be 'implicit' or 'fd', got {self.jacobian!r}")
         if not (self.fd_step > 0 and self.noise > 0 and self.max_iterations > 0 and self.initial_trust_radius > 0):
             raise ValueError("fd_step, noise, max_iterations and initial_trust_radius must be > 0")
+        if self.fixed_iterations and self.method != "gauss-newton":
+            raise ValueError("fixed_iterations applies to method 'gauss-newton' only")
 
 
 @dataclass
@@ -366,9 +373,16 @@ def _gauss_newton(mm, target, sqrt_w, initial, solutions, options, result, recor
         result.solutions = sols
         record(values, sols)
         result.iterations += 1
-        if cost - result.cost[-1] < options.cost_tol:
+        decrease = cost - result.cost[-1]
+        cost = result.cost[-1]
+        if options.fixed_iterations:
+            continue
+        if decrease < 0:                        # the paper's test fires here too, but this is no convergence
+            result.message = f"the cost rose ({cost - decrease:.3e} → {cost:.3e}): Gauss–Newton step failed"
+            return
+        if decrease < options.cost_tol:
             result.success = True
             result.message = f"cost decrease below ε_m = {options.cost_tol:g}"
             return
-        cost = result.cost[-1]
-    result.message = f"iteration limit ({options.max_iterations})"
+    result.message = (f"fixed iteration count ({options.max_iterations}) done; ε_m not tested"
+                      if options.fixed_iterations else f"iteration limit ({options.max_iterations})")

@@ -90,6 +90,12 @@ def _cap(values, where):
         raise ConfigError(f"config key {where}.H: H = {values['H']} m must be < R = {values['R']} m")
 
 
+def _fixed_iterations(scene, methods, where):
+    if scene["identification"].get("fixed_iterations") and any(m != "gauss-newton" for m in methods):
+        raise ConfigError(f"config key {where}.identification.fixed_iterations: applies to gauss-newton only, "
+                          f"and this scene runs {', '.join(sorted(set(methods)))}")
+
+
 def validate_config(config, schema_path) -> dict:
     """Validated copy of ``config`` with every default filled in. Raises ConfigError."""
     root = load_schema(schema_path)
@@ -120,6 +126,7 @@ def validate_config(config, schema_path) -> dict:
                     f"{where}.meshes")
             _postures(scene["postures"], f"{where}.postures")
             _cap(scene["truth"], f"{where}.truth")
+            _fixed_iterations(scene, [m.get("method", "lm") for m in scene["methods"]], where)
         elif kind == "patient":
             _levels([scene["mesh"]], f"{where}.mesh")
             for posture, values in scene["postures"].items():
@@ -129,6 +136,7 @@ def validate_config(config, schema_path) -> dict:
                 if missing:
                     raise ConfigError(f"config key {where}.postures.{posture}: missing {', '.join(missing)}")
             _cap(scene["initial"], f"{where}.initial")
+            _fixed_iterations(scene, [scene["identification"]["method"]], where)
         elif kind == "stability":
             _levels(scene["meshes"], f"{where}.meshes")
             _postures(scene["grid"]["posture"], f"{where}.grid.posture")

@@ -189,3 +189,38 @@ def test_iteration_cap_spans_restarts_and_success_means_converged(method, drift)
         assert result.success == (not result.message.startswith("iteration limit")), (cap, result.message)
         if cap >= free.iterations and drift == 0:
             assert result.success, (cap, result.message)
+
+
+class _SpoiledSecondStep(LinearModel):
+    """The second Gauss–Newton trial point reads every measurement 30 % high: the cost rises there."""
+
+    def solve(self, values, remember=True, cold=False):
+        solutions = super().solve(values, remember, cold)
+        solutions["spoiled"] = self.solves == 3          # 1: initial solve, 2: first step, 3: second step
+        return solutions
+
+    def measure(self, solutions):
+        return super().measure(solutions) * (1.3 if solutions.get("spoiled") else 1.0)
+
+
+def test_gauss_newton_stops_at_a_cost_rise_without_calling_it_converged():
+    mm = _SpoiledSecondStep()
+    target = mm.measure(mm.solve(TRUTH))
+    mm.solves = 0
+    opts = IdentificationOptions(method="gauss-newton", jacobian="implicit", max_iterations=10)
+    result = identify(mm, target, TRUTH * 1.2, opts)
+    assert result.cost[2] > result.cost[1]
+    assert result.iterations == 2 and not result.success and "cost rose" in result.message
+
+
+def test_fixed_iterations_runs_them_all_and_claims_no_convergence():
+    mm = _SpoiledSecondStep()
+    target = mm.measure(mm.solve(TRUTH))
+    mm.solves = 0
+    opts = IdentificationOptions(method="gauss-newton", jacobian="implicit", max_iterations=7, fixed_iterations=True)
+    result = identify(mm, target, TRUTH * 1.2, opts)
+    assert result.iterations == 7 == len(result.cost) - 1 - result.branch_restarts
+    assert not result.success and "fixed iteration count (7)" in result.message
+    assert result.cost[-1] < 1e-12 < result.cost[2]            # it went on past the rise and converged anyway
+    with pytest.raises(ValueError, match="'gauss-newton' only"):
+        IdentificationOptions(fixed_iterations=True)

@@ -148,3 +148,12 @@ def test_compute_hash_covers_exactly_the_modules_the_compute_rules_import(tmp_pa
            "print(' '.join(m for m in sys.modules if m.startswith('breastcore.')))"
     loaded = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout.split()
     assert loaded and {m.split(".", 1)[1].replace(".", "/") + ".py" for m in loaded} <= names
+
+
+def test_fixed_iterations_only_with_gauss_newton():
+    msg = _bad(lambda c: c["scenes"]["paper_synthetic"].update(identification={"fixed_iterations": True}))
+    assert "scenes.paper_synthetic.identification.fixed_iterations" in msg and "lm" in msg
+    config = copy.deepcopy(DEFAULT)
+    config["scenes"]["paper_synthetic"].update(identification={"fixed_iterations": True},
+                                              methods=[{"name": "gn", "method": "gauss-newton"}])
+    assert validate_config(config, SCHEMA)["scenes"]["paper_synthetic"]["identification"]["fixed_iterations"]

@@ -42,6 +42,9 @@ def register(sub):
                    help="relative 1σ measurement noise of the uncertainty model (default 0.10)")
     p.add_argument("--initial-trust-radius", type=float, default=0.5,
                    help="LM: first trust-region radius in the log/logit parameters (default 0.5)")
+    p.add_argument("--fixed-iterations", action="store_true",
+                   help="gauss-newton only: run exactly --max-iterations iterations without the ε_m test "
+                        "(the paper's evolution runs); never reported converged")
     p.add_argument("--processes", type=int, default=1,
                    help="solve the postures in this many processes (default 1; 2 pays from the thin mesh up)")
     add_parameter_options(p)
@@ -68,7 +71,8 @@ def run(args):
     try:
         options = IdentificationOptions(method=args.method, jacobian=args.jacobian, fd_step=args.fd_step,
                                         cost_tol=args.cost_tol, max_iterations=args.max_iterations, noise=args.noise,
-                                        initial_trust_radius=args.initial_trust_radius)
+                                        initial_trust_radius=args.initial_trust_radius,
+                                        fixed_iterations=args.fixed_iterations)
     except ValueError as err:
         raise UsageError(f"identification options: {err}") from None
     ds_m = open_dataset(args.measurements)
