@@ -1,5 +1,6 @@
 """Saddle points: detection by the Hessian's inertia and the escape to a minimum."""
 
+import dataclasses
 import numpy as np
 import pytest
 import scipy.linalg as sl
@@ -41,6 +42,40 @@ def test_escape_from_an_analytic_saddle_reaches_a_minimum():
     assert result.success and result.negative_pivots == 0
     assert abs(abs(result.x[1]) - 2 ** -0.5) < 1e-10 and abs(result.x[0]) < 1e-10
     assert result.energy == pytest.approx(-0.25, abs=1e-14)
+
+
+class DoubleSaddle(DoubleWell):
+    """E(x, y) = −x² + x⁴ − y² + y⁴: inertia 2 at 0, saddles of inertia 1 at (±1/√2, 0), (0, ±1/√2),
+    minima at (±1/√2, ±1/√2) with E = −1/2."""
+
+    def value(self, z):
+        return float(np.sum(-z * z + z ** 4))
+
+    def gradient(self, z):
+        return -2 * z + 4 * z ** 3
+
+    def hessian(self, z, project=False):
+        H = -2.0 + 12 * z ** 2
+        return sp.diags(np.maximum(H, 0.0) if project else H, format="csr")
+
+
+def test_escape_follows_every_negative_direction_in_one_round(monkeypatch):
+    """Leaving along the lowest direction only would stop on an inertia-1 saddle and need a second eigen-solve."""
+    import breastcore.saddle as saddle
+    calls = []
+    original = saddle.negative_curvature_directions
+    monkeypatch.setattr(saddle, "negative_curvature_directions",
+                        lambda K, count, pattern=None: calls.append(count) or original(K, count, pattern))
+    problem = DoubleSaddle()
+    at_saddle = solver.newton(problem, np.zeros(2), 1e-12)          # g = 0: converged, on the saddle
+    inertia = solver.Factorization(problem.hessian(at_saddle.x)).negative_pivots
+    at_saddle = dataclasses.replace(at_saddle, negative_pivots=inertia)
+    assert at_saddle.success and np.allclose(at_saddle.x, 0.0) and at_saddle.negative_pivots == 2
+    result = escape_saddle(problem, at_saddle)
+    assert result.success and result.negative_pivots == 0
+    assert np.allclose(np.abs(result.x), 2 ** -0.5, atol=1e-10)
+    assert result.energy == pytest.approx(-0.5, abs=1e-14)
+    assert calls == [2]
 
 
 def test_negative_curvature_directions_match_dense_eigenpairs():
