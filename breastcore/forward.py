@@ -249,14 +249,18 @@ class ForwardModel:
         for assembler in self._assemblers.values():
             assembler._pattern = None
 
-    def solve_postures(self, params: Parameters, postures, starts=None, processes=1) -> list[PostureSolution]:
+    def solve_postures(self, params: Parameters, postures, starts=None, processes=1,
+                       finish=None) -> list[PostureSolution]:
         """Equilibria of several postures, optionally in ``processes`` forked worker processes.
 
         The postures are independent solves, so running them in parallel gives the
         same results bit for bit (PARDISO runs single-threaded, see
         :data:`breastcore.solver.PARDISO_THREADS_ENV`). ``starts`` maps a posture
         name to a warm start. Falls back to one process where ``fork`` is not
-        available or this process may not have children (a daemon).
+        available or this process may not have children (a daemon). ``finish(posture,
+        solution)``, if given, runs in the worker after each successful solve and
+        returns a dict merged into ``solution.extra`` (work on the solution that
+        then runs in parallel too, e.g. its Jacobian).
 
         Raises
         ------
@@ -268,9 +272,12 @@ class ForwardModel:
 
         def solve(index):                                  # a SolveError is returned, so that all run
             try:
-                return self.solve(params, postures[index], starts.get(postures[index].name))
+                solution = self.solve(params, postures[index], starts.get(postures[index].name))
             except SolveError as err:
                 return err
+            if finish is not None:
+                solution.extra.update(finish(postures[index], solution))
+            return solution
 
         outcomes = fork_map(solve, len(postures), processes or 1, after_fork=self.after_fork)
         for outcome in outcomes:

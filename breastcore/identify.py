@@ -158,7 +158,8 @@ def identify(mm, target, initial, options=IdentificationOptions(), weights=None)
     sqrt_w = np.sqrt(w)
     result = IdentificationResult(False, "", np.asarray(initial, float))
     tic = time.perf_counter()
-    solutions = mm.solve(initial)                    # a failure here is the caller's to report
+    implicit = options.jacobian == "implicit"
+    solutions = mm.solve(initial, jacobian=implicit)  # a failure here is the caller's to report
     mm.remember(solutions, initial)
 
     def record(values, sols):
@@ -272,7 +273,7 @@ def _levenberg_marquardt(mm, target, sqrt_w, initial, solutions, options, result
     def fun(z):
         values = from_unconstrained(z)
         try:
-            sols = mm.solve(values, remember=False)
+            sols = mm.solve(values, remember=False, jacobian=options.jacobian == "implicit")
         except (SolveError, ParameterError) as err:
             result.failed_solves += 1
             log.info("identify: step rejected, forward solve failed (%s)", err)
@@ -360,7 +361,7 @@ def _gauss_newton(mm, target, sqrt_w, initial, solutions, options, result, recor
             trial = values * (1.0 + step)
             try:
                 if np.all(trial > 0) and trial[1] < trial[0]:
-                    trial_sols = mm.solve(trial)
+                    trial_sols = mm.solve(trial, jacobian=options.jacobian == "implicit")
                     break
             except (SolveError, ParameterError) as err:
                 result.failed_solves += 1

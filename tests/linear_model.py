@@ -26,7 +26,7 @@ class LinearModel:
         self.drift = drift
         self.solves = 0
 
-    def solve(self, values, remember=True, cold=False):
+    def solve(self, values, remember=True, cold=False, jacobian=False):
         self.solves += 1
         return {"values": np.array(values, float), "cold": cold}
 

@@ -1,6 +1,7 @@
 """Identification: implicit Jacobian vs central differences, inverse-crime recovery,
 the paper's Gauss-Newton, rejected failed solves, and the output dataset."""
 
+import dataclasses
 import numpy as np
 import pytest
 
@@ -156,6 +157,19 @@ def test_cold_solves_in_two_processes_equal_serial_ones_bit_for_bit(problem):
         MeasurementModel(mm.model, Parameters(), paper_postures(), processes=0)
 
 
+def test_jacobian_rows_from_the_workers_equal_the_serial_jacobian(problem, monkeypatch):
+    mm, _, _ = problem
+    values = TRUTH * 1.02
+    parallel = MeasurementModel(mm.model, Parameters(), paper_postures(), processes=2)
+    solutions = parallel.solve(values, jacobian=True)
+    serial = MeasurementModel(mm.model, Parameters(), paper_postures()).implicit_jacobian(values, solutions | {
+        name: dataclasses.replace(s, extra={}) for name, s in solutions.items()})     # no cached rows
+    monkeypatch.setattr(MeasurementModel, "_posture_jacobian", lambda *a, **k: pytest.fail("not reused"))
+    np.testing.assert_allclose(parallel.implicit_jacobian(values, solutions), serial, rtol=1e-12, atol=0)
+    with pytest.raises(pytest.fail.Exception):                  # rows at other Λ are not reused
+        parallel.implicit_jacobian(values * 1.01, solutions)
+
+
 @pytest.mark.parametrize("drift, restarts", [(1e-3, 0), (5e-2, 2)])
 def test_a_branch_drift_below_the_fit_residual_is_not_chased(drift, restarts):
     """Data 1 % off the model (RMS residual ≈ 9e-3): a 1e-3 drift is kept, a 5e-2 drift is chased."""
@@ -194,8 +208,8 @@ def test_iteration_cap_spans_restarts_and_success_means_converged(method, drift)
 class _SpoiledSecondStep(LinearModel):
     """The second Gauss–Newton trial point reads every measurement 30 % high: the cost rises there."""
 
-    def solve(self, values, remember=True, cold=False):
-        solutions = super().solve(values, remember, cold)
+    def solve(self, values, remember=True, cold=False, jacobian=False):
+        solutions = super().solve(values, remember, cold, jacobian)
         solutions["spoiled"] = self.solves == 3          # 1: initial solve, 2: first step, 3: second step
         return solutions
 
