@@ -105,9 +105,7 @@ def bulk_energy(x, tets, shape_gradients, volume, lam, mu):
     total = 0.0
     for e in range(tets.shape[0]):
         _deformation_gradient(F, x, tets[e], shape_gradients[e])
-        J = (F[0, 0] * (F[1, 1] * F[2, 2] - F[1, 2] * F[2, 1])
-             + F[0, 1] * (F[1, 2] * F[2, 0] - F[1, 0] * F[2, 2])
-             + F[0, 2] * (F[1, 0] * F[2, 1] - F[1, 1] * F[2, 0]))
+        J = _det(F)
         if not J > 0.0:
             return np.inf
         trace_C = 0.0
@@ -144,13 +142,10 @@ def add_bulk_gradient(out, x, tets, shape_gradients, volume, lam, mu):
 @njit(cache=True)
 def _inverse(Finv, F):
     """``F⁻¹ = cof(F)ᵀ / det F`` into ``Finv``; returns ``det F``."""
-    c00 = F[1, 1] * F[2, 2] - F[1, 2] * F[2, 1]
-    c01 = F[1, 2] * F[2, 0] - F[1, 0] * F[2, 2]
-    c02 = F[1, 0] * F[2, 1] - F[1, 1] * F[2, 0]
-    J = F[0, 0] * c00 + F[0, 1] * c01 + F[0, 2] * c02
-    Finv[0, 0] = c00 / J
-    Finv[1, 0] = c01 / J
-    Finv[2, 0] = c02 / J
+    J = _det(F)
+    Finv[0, 0] = (F[1, 1] * F[2, 2] - F[1, 2] * F[2, 1]) / J
+    Finv[1, 0] = (F[1, 2] * F[2, 0] - F[1, 0] * F[2, 2]) / J
+    Finv[2, 0] = (F[1, 0] * F[2, 1] - F[1, 1] * F[2, 0]) / J
     Finv[0, 1] = (F[0, 2] * F[2, 1] - F[0, 1] * F[2, 2]) / J
     Finv[1, 1] = (F[0, 0] * F[2, 2] - F[0, 2] * F[2, 0]) / J
     Finv[2, 1] = (F[0, 1] * F[2, 0] - F[0, 0] * F[2, 1]) / J
@@ -158,3 +153,11 @@ def _inverse(Finv, F):
     Finv[1, 2] = (F[0, 2] * F[1, 0] - F[0, 0] * F[1, 2]) / J
     Finv[2, 2] = (F[0, 0] * F[1, 1] - F[0, 1] * F[1, 0]) / J
     return J
+
+
+@njit(cache=True)
+def _det(F):
+    """``det F`` of a 3×3 matrix, expanded along its first row."""
+    return (F[0, 0] * (F[1, 1] * F[2, 2] - F[1, 2] * F[2, 1])
+            + F[0, 1] * (F[1, 2] * F[2, 0] - F[1, 0] * F[2, 2])
+            + F[0, 2] * (F[1, 0] * F[2, 1] - F[1, 1] * F[2, 0]))

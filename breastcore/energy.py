@@ -19,6 +19,7 @@ import copy
 import numpy as np
 
 from . import compiled, kernels
+from .assembly import element_dofs
 
 #: Edge-to-node map of a triangle: edge a = Σ_n S[a, n] x_n.
 _TRIANGLE_EDGES = np.array([[-1.0, 1.0, 0.0], [-1.0, 0.0, 1.0]])
@@ -32,12 +33,6 @@ def _dot(a, b):
     for a scheduler tick, 4-8 ms instead of 10 µs.
     """
     return float(np.einsum("i,i->", a, b))
-
-
-def _element_dofs(connectivity):
-    """Global dof numbers ``3 * node + xyz`` of each element, ``(n, 3k)``."""
-    conn = np.asarray(connectivity)
-    return (3 * conn[:, :, None] + np.arange(3)).reshape(len(conn), -1)
 
 
 def _scatter(dofs, element_values, shape):
@@ -110,7 +105,6 @@ class BulkNeoHookean:
             raise ValueError("reference mesh has non-positive tetrahedra")
         Dm_inv = np.linalg.inv(Dm)
         self.shape_gradients = np.concatenate([-Dm_inv.sum(axis=1, keepdims=True), Dm_inv], axis=1)
-        self._dofs = _element_dofs(self.connectivity)
         # |τ| ∇N_a·∇N_b: the constant part of the μ δ_ik block.
         self._volume_GG = np.einsum("naj,nbj->nab", self.shape_gradients, self.shape_gradients) \
             * self.volume[:, None, None]
@@ -206,7 +200,7 @@ class SkinMembrane:
         self.det_G = np.linalg.det(G)
         self.G_inv = np.linalg.inv(G)
         self.area = 0.5 * np.sqrt(self.det_G)
-        self._dofs = _element_dofs(self.connectivity)
+        self._dofs = element_dofs(self.connectivity)
 
     def _edges(self, x):
         e = _TRIANGLE_EDGES @ x[self.connectivity]

@@ -126,7 +126,7 @@ class MeasurementModel:
         out = np.zeros((len(self.postures), len(self.quantities), len(IDENTIFIED)))
         for i, posture in enumerate(self.postures):
             solution = solutions[posture.name]
-            cached = getattr(solution, "extra", {}).get("jacobian_rows")
+            cached = solution.extra.get("jacobian_rows")
             if cached is not None and np.array_equal(cached[0], np.asarray(values, dtype=float)):
                 out[i] = cached[1]                                  # computed by the worker that solved it
             else:
