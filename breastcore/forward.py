@@ -54,6 +54,14 @@ class SolverOptions:
         stopped, up to this many more times, before the step is halved. (Far from
         equilibrium, e.g. μ = 15 Pa without skin on all fours, the minimiser needs
         ~200 iterations and halving the load step does not shorten the way.)
+    max_final_attempts : int
+        The final step (full gravity, target δ, full tolerance) may fail this many
+        times, each from a different converged neighbour, before the solve raises.
+        The last step's failures are at the tolerance, not on the way: in the
+        identification logs of the full paper scene (545 runs) no final step
+        succeeded after failing twice, while 37 failed solves each spent 15 more
+        attempts, 1,675 s in all (241 s up to a third failure), halving towards
+        ``min_step`` (docs/identification.md, Failed forward solves).
     """
 
     method: str = "newton"
@@ -64,6 +72,7 @@ class SolverOptions:
     min_step: float = 1.0 / 256
     cg_max_iterations: int = 20000
     max_extensions: int = 4
+    max_final_attempts: int = 3
 
     def __post_init__(self):
         if self.method not in ("newton", "cg"):
@@ -71,6 +80,8 @@ class SolverOptions:
         for name in ("rtol", "stage_rtol", "smoothing_start", "min_step"):
             if not getattr(self, name) > 0:
                 raise ValueError(f"solver option {name} must be > 0")
+        if int(self.max_final_attempts) < 1:
+            raise ValueError("solver option max_final_attempts must be ≥ 1")
 
 
 class SolveError(RuntimeError):
@@ -329,7 +340,8 @@ def solve_posture(model: ForwardModel, params: Parameters, posture: Posture, sta
     Raises
     ------
     SolveError
-        When a continuation step falls below ``options.min_step``.
+        When a continuation step falls below ``options.min_step``, or the final
+        step has failed ``options.max_final_attempts`` times.
     """
     opts = model.options
     tic = time.perf_counter()
@@ -368,7 +380,7 @@ def solve_posture(model: ForwardModel, params: Parameters, posture: Posture, sta
     t_end = 2.0 if decades > 0 else 1.0
     max_delta_step = 1.0 / max(decades, 1.0)          # δ falls at most one decade per step
     dt = 1.0 if t < 1.0 else max_delta_step
-    last = None
+    final_failures = 0
     x_delta = None                                    # δ at which x is an equilibrium (None: unknown)
     while True:
         t_next = min(t + dt, 1.0 if t < 1.0 else t_end)
@@ -381,7 +393,6 @@ def solve_posture(model: ForwardModel, params: Parameters, posture: Posture, sta
         result = _minimise(model, problem, z, tolerance if final else loose)
         iterations += result.iterations
         steps += 1
-        last = (problem, result)
         log.debug("%s: step t=%.4f load=%.4g δ=%.3e: %s in %d iterations", posture.name, t_next, load, delta,
                   result.message, result.iterations)
         if result.success:
@@ -390,13 +401,15 @@ def solve_posture(model: ForwardModel, params: Parameters, posture: Posture, sta
             t, x, x_delta = t_next, problem.full(result.x), delta
             dt = min(2.0 * dt, 1.0 if t < 1.0 else max_delta_step)
             continue
+        final_failures += final
         log.info("%s: continuation step t=%.4f→%.4f failed (%s); halving", posture.name, t, t_next, result.message)
         dt *= 0.5
-        if dt < opts.min_step:
-            problem, result = last
+        if dt < opts.min_step or final_failures >= opts.max_final_attempts:
             min_det = _diagnostics(problem, problem.full(result.x))[0]
             load, delta = level(t)
-            raise SolveError("continuation stalled: " + result.message, iterations=iterations,
+            why = "continuation stalled" if dt < opts.min_step else \
+                f"final step failed {final_failures} times"
+            raise SolveError(f"{why}: {result.message}", iterations=iterations,
                              gradient_norm=result.gradient_norm, tolerance=tolerance, min_det_F=min_det,
                              load_factor=load, smoothing=delta, posture=posture.name)
 

@@ -75,6 +75,24 @@ def test_failure_raises_typed_error_with_diagnostics(coarse):
     assert "min det F" in str(err)
 
 
+@pytest.mark.parametrize("attempts", [1, 3])
+def test_unreachable_tolerance_gives_up_after_max_final_attempts(coarse, attempts):
+    # rtol 1e-20 is below the gradient's round-off floor: every final step stagnates,
+    # while the intermediate steps (stage_rtol) converge.
+    model = ForwardModel(coarse, SolverOptions(rtol=1e-20, max_final_attempts=attempts))
+    with pytest.raises(SolveError) as info:
+        model.solve(Parameters(), Posture("bent45", 45.0))
+    err = info.value
+    assert f"final step failed {attempts} times" in str(err)
+    assert err.load_factor == 1.0 and err.gradient_norm > err.tolerance
+    assert np.isfinite(err.min_det_F) and err.min_det_F > 0
+
+
+def test_max_final_attempts_must_be_positive():
+    with pytest.raises(ValueError, match="max_final_attempts"):
+        SolverOptions(max_final_attempts=0)
+
+
 def test_intermediate_posture_angle_lies_between_neighbours(coarse):
     model = ForwardModel(coarse)
     p = Parameters()
