@@ -57,11 +57,11 @@ class SolverOptions:
     max_final_attempts : int
         The final step (full gravity, target δ, full tolerance) may fail this many
         times, each from a different converged neighbour, before the solve raises.
-        The last step's failures are at the tolerance, not on the way: in the
-        identification logs of the full paper scene (545 runs) no final step
-        succeeded after failing twice, while 37 failed solves each spent 15 more
-        attempts, 1,675 s in all (241 s up to a third failure), halving towards
-        ``min_step`` (docs/identification.md, Failed forward solves).
+        The last step's failures are at the tolerance, not on the way: in 652
+        identification logs (the full paper scene's 545 runs and 107 others) no
+        final step succeeded after failing twice, while 37 failed solves had
+        retried it 15 times each, halving towards ``min_step``: 1,675 s in all,
+        against 241 s up to a third failure (docs/identification.md).
     """
 
     method: str = "newton"

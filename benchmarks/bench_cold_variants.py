@@ -1,0 +1,83 @@
+"""Cold solves under variants of the solver: Newton iterations, time, and which equilibrium.
+
+Usage::
+
+    python benchmarks/bench_cold_variants.py [--level medium-thin] [--variants default,smoothing1e-3,projected]
+
+Five parameter points (Λ̄ and four uniform draws within ±40 %, seed 0) are solved
+cold in each paper posture, on ``results/mesh/<level>.nc`` (run the workflow first).
+Variants:
+
+- ``default``: the shipped ``SolverOptions``;
+- ``smoothing1e-3`` / ``smoothing1e-2``: the gravity ramp at δ = 1e-3 m / 1e-2 m
+  (``smoothing_start``) instead of 1e-4 m;
+- ``projected``: Newton with ``avoid_saddles=True`` from the first iteration (the step
+  from the PSD-projected Hessian whenever the exact one has negative pivots).
+
+``max ΔM`` is the largest relative difference of the 15 measurements from the default
+variant's at the same point: a non-zero value means the variant's continuation path
+ends at another local minimum of the same energy (the standing posture has several).
+"""
+
+from __future__ import annotations
+
+import argparse
+import functools
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+
+from benchmarks._common import ROOT, header, print_table  # noqa: E402
+import breastcore.forward as forward  # noqa: E402
+from breastcore.datasets import mesh_from_dataset, open_dataset  # noqa: E402
+from breastcore.measure import measure  # noqa: E402
+from breastcore.parameters import IDENTIFIED, Parameters  # noqa: E402
+from breastcore.postures import paper_postures  # noqa: E402
+from breastcore.solver import newton  # noqa: E402
+
+VARIANTS = {
+    "default": ({}, newton),
+    "smoothing1e-3": ({"smoothing_start": 1e-3}, newton),
+    "smoothing1e-2": ({"smoothing_start": 1e-2}, newton),
+    "projected": ({}, functools.partial(newton, avoid_saddles=True)),
+}
+
+
+def main(argv=None):
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("--level", default="medium-thin")
+    parser.add_argument("--variants", default="default,smoothing1e-3,projected")
+    args = parser.parse_args(argv)
+    header("bench_cold_variants")
+    mesh = mesh_from_dataset(open_dataset(ROOT / "results" / "mesh" / f"{args.level}.nc"))
+    base = Parameters()
+    truth = np.array([getattr(base, n) for n in IDENTIFIED])
+    rng = np.random.default_rng(0)
+    points = [truth] + [truth * (1 + rng.uniform(-0.4, 0.4, 6)) for _ in range(4)]
+    reference, rows = {}, []
+    for name in ["default"] + [v for v in args.variants.split(",") if v != "default"]:
+        options, minimiser = VARIANTS[name]
+        forward.newton = minimiser                          # solve_posture's Newton for this variant
+        model = forward.ForwardModel(mesh, forward.SolverOptions(**options))
+        for posture in paper_postures():
+            iterations, seconds, change = [], 0.0, 0.0
+            for i, values in enumerate(points):
+                tic = time.perf_counter()
+                solution = model.solve(base.with_identified(values), posture)
+                seconds += time.perf_counter() - tic
+                iterations.append(solution.iterations)
+                m = np.array(list(measure(mesh, solution.position, "paper15").values()))
+                reference.setdefault((posture.name, i), m)
+                change = max(change, float(np.abs(m / reference[(posture.name, i)] - 1).max()))
+            rows.append([name, posture.name, " ".join(map(str, iterations)), f"{seconds:.2f}", f"{change:.1e}"])
+    forward.newton = newton
+    print_table(["variant", "posture", "Newton iterations (5 points)", "time (s)", "max ΔM"], rows,
+                f"Cold solves on {args.level}")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,120 @@
+"""Where a workflow run's identification time goes, read from its logs and benchmarks.
+
+Usage::
+
+    python benchmarks/paper_scene_logs.py [--results results] [--since-hash PREFIX]
+
+Reads every ``<results>/identify/*.nc`` (mesh level, failed solves), the job's
+Snakemake benchmark (wall seconds) and its log (one line per Newton iteration and
+per solve), and prints three tables:
+
+- job time per mesh level, with the jobs that had failed trial solves;
+- Newton iterations per kind of forward solve: ``warm`` (the target problem solved
+  directly from the last accepted equilibrium), ``cold`` (gravity ramp and δ
+  continuation from the reference), ``warm fallback`` (a warm start that failed and
+  went on by δ continuation);
+- how often the final continuation step (full gravity, target δ, full tolerance)
+  failed before a solve succeeded or gave up, which is what
+  ``SolverOptions.max_final_attempts`` caps.
+
+Run it after ``snakemake --cores 2 results_page --configfile config/paper.yaml``;
+``--since-hash`` keeps only the datasets written by code whose source hash starts so.
+"""
+
+from __future__ import annotations
+
+import argparse
+import collections
+import re
+import statistics
+import sys
+from pathlib import Path
+
+import xarray as xr
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+
+from benchmarks._common import header, print_table  # noqa: E402
+
+STEP = re.compile(r"breastcore\.forward: (\S+): step t=(\S+) load=\S+ δ=\S+: (.*) in \d+ iterations")
+CONVERGED = re.compile(r"breastcore\.forward: (\S+): converged in (\d+) iterations \((\d+) continuation")
+GAVE_UP = re.compile(r"forward solve failed \((\S+): ")
+
+
+def jobs(results: Path, since_hash: str | None):
+    """``(key, mesh level, failed solves, wall seconds)`` of every identification job."""
+    out = []
+    for path in sorted((results / "identify").glob("*.nc")):
+        with xr.open_dataset(path) as ds:
+            attrs = dict(ds.attrs)
+        if since_hash and not attrs["source_hash"].startswith(since_hash):
+            continue
+        bench = results / "benchmarks" / "identify" / f"{path.stem}.tsv"
+        seconds = float(bench.read_text().splitlines()[1].split()[0]) if bench.exists() else float("nan")
+        out.append((path.stem, attrs["mesh_level"], int(attrs["failed_solves"]), seconds))
+    return out
+
+
+def solve_kinds(log: Path):
+    """Newton iterations per solve kind, and final-step failures before each outcome."""
+    iterations, counts = collections.Counter(), collections.Counter()
+    outcomes = collections.Counter()                        # (outcome, final-step failures) -> solves
+    first_t, final_failures = {}, collections.Counter()
+    for line in log.read_text(errors="replace").splitlines():
+        if m := STEP.search(line):
+            posture, t, message = m.group(1), float(m.group(2)), m.group(3)
+            first_t.setdefault(posture, t)
+            if t == 2.0 and not message.startswith("converged"):
+                final_failures[posture] += 1
+        elif m := CONVERGED.search(line):
+            posture, its, steps = m.group(1), int(m.group(2)), int(m.group(3))
+            kind = "warm" if steps == 1 else "cold" if first_t.get(posture, 9.0) <= 1.0 else "warm fallback"
+            iterations[kind] += its
+            counts[kind] += 1
+            outcomes[("converged", final_failures.pop(posture, 0))] += 1
+            first_t.pop(posture, None)
+        elif m := GAVE_UP.search(line):
+            posture = m.group(1)
+            outcomes[("gave up", final_failures.pop(posture, 0))] += 1
+            first_t.pop(posture, None)
+    return iterations, counts, outcomes
+
+
+def main(argv=None):
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("--results", default="results", type=Path)
+    parser.add_argument("--since-hash", default=None)
+    args = parser.parse_args(argv)
+    header("paper_scene_logs")
+    rows = jobs(args.results, args.since_hash)
+    by_level = collections.defaultdict(list)
+    for row in rows:
+        by_level[row[1]].append(row)
+    table, kinds = [], collections.defaultdict(lambda: [collections.Counter(), collections.Counter()])
+    outcomes = collections.Counter()
+    for level, level_rows in by_level.items():
+        times = [r[3] for r in level_rows]
+        failed = [r[3] for r in level_rows if r[2] > 0]
+        table.append([level, len(level_rows), f"{sum(times):.0f}", f"{statistics.median(times):.1f}",
+                      f"{statistics.fmean(times):.1f}", f"{max(times):.0f}", len(failed), f"{sum(failed):.0f}"])
+        for key, *_ in level_rows:
+            log = args.results / "logs" / "identify" / f"{key}.log"
+            if log.exists():
+                its, counts, outs = solve_kinds(log)
+                kinds[level][0].update(its)
+                kinds[level][1].update(counts)
+                outcomes.update(outs)
+    total = sum(r[3] for r in rows)
+    table.append(["all", len(rows), f"{total:.0f}", "", "", "", sum(r[2] > 0 for r in rows),
+                  f"{sum(r[3] for r in rows if r[2] > 0):.0f}"])
+    print_table(["level", "jobs", "job time (s)", "median (s)", "mean (s)", "max (s)", "jobs with failed solves",
+                 "their time (s)"], table, "Identification job time per mesh level")
+    print_table(["level"] + [f"{k} solves (Newton its)" for k in ("warm", "cold", "warm fallback")],
+                [[level] + [f"{c[1][k]} ({c[0][k]})" for k in ("warm", "cold", "warm fallback")]
+                 for level, c in kinds.items()], "Forward solves by kind")
+    print_table(["outcome", "final-step failures before it", "solves"],
+                [[o, k, n] for (o, k), n in sorted(outcomes.items())], "Final continuation step")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,36 @@
+"""benchmarks/paper_scene_logs.py reads the log lines the solver really writes."""
+
+import logging
+import sys
+from pathlib import Path
+
+import pytest
+
+from breastcore.forward import ForwardModel, SolveError, SolverOptions
+from breastcore.logs import log_to
+from breastcore.mesh import mesh_level
+from breastcore.parameters import Parameters
+from breastcore.postures import Posture
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+
+from benchmarks.paper_scene_logs import solve_kinds  # noqa: E402
+
+
+def test_solve_kinds_counts_cold_warm_and_final_step_failures(tmp_path):
+    mesh = mesh_level("coarse")
+    posture = Posture("bent45", 45.0)
+    log = tmp_path / "identify.log"
+    with log_to(log):
+        model = ForwardModel(mesh)
+        cold = model.solve(Parameters(), posture)
+        warm = model.solve(Parameters(mu_breast=1.01 * Parameters().mu_breast), posture, cold.position)
+        with pytest.raises(SolveError) as info:              # rtol below round-off: the final step fails
+            ForwardModel(mesh, SolverOptions(rtol=1e-20, max_final_attempts=2)).solve(Parameters(), posture)
+        # identify logs a failed trial solve in this form
+        logging.getLogger("breastcore.identify").info("identify: step rejected, forward solve failed (%s)", info.value)
+    iterations, counts, outcomes = solve_kinds(log)
+    assert counts == {"cold": 1, "warm": 1}
+    assert iterations == {"cold": cold.iterations, "warm": warm.iterations}
+    assert warm.continuation_steps == 1 and cold.continuation_steps > 1
+    assert outcomes == {("converged", 0): 2, ("gave up", 2): 1}
