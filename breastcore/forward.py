@@ -55,8 +55,11 @@ class SolverOptions:
         equilibrium, e.g. μ = 15 Pa without skin on all fours, the minimiser needs
         ~200 iterations and halving the load step does not shorten the way.)
     max_final_attempts : int
-        The final step (full gravity, target δ, full tolerance) may fail this many
+        The final δ step (full gravity, target δ, full tolerance) may fail this many
         times, each from a different converged neighbour, before the solve raises.
+        Without a δ phase (target δ ≥ ``smoothing_start``) the final step is the
+        gravity step, which is halved down to ``min_step`` as before: a shorter load
+        step does bring the start closer.
         The last step's failures are at the tolerance, not on the way: in 652
         identification logs (the full paper scene's 545 runs and 107 others) no
         final step succeeded after failing twice, while 37 failed solves had
@@ -341,7 +344,7 @@ def solve_posture(model: ForwardModel, params: Parameters, posture: Posture, sta
     ------
     SolveError
         When a continuation step falls below ``options.min_step``, or the final
-        step has failed ``options.max_final_attempts`` times.
+        δ step has failed ``options.max_final_attempts`` times.
     """
     opts = model.options
     tic = time.perf_counter()
@@ -401,7 +404,7 @@ def solve_posture(model: ForwardModel, params: Parameters, posture: Posture, sta
             t, x, x_delta = t_next, problem.full(result.x), delta
             dt = min(2.0 * dt, 1.0 if t < 1.0 else max_delta_step)
             continue
-        final_failures += final
+        final_failures += final and t >= 1.0           # a failed last δ step; a load step is halved on
         log.info("%s: continuation step t=%.4f→%.4f failed (%s); halving", posture.name, t, t_next, result.message)
         dt *= 0.5
         if dt < opts.min_step or final_failures >= opts.max_final_attempts:

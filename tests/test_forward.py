@@ -88,6 +88,15 @@ def test_unreachable_tolerance_gives_up_after_max_final_attempts(coarse, attempt
     assert np.isfinite(err.min_det_F) and err.min_det_F > 0
 
 
+def test_final_gravity_step_is_halved_to_min_step_not_capped(coarse):
+    # δ = smoothing_start: no δ phase, the final step is the load step, which is halved
+    # down to min_step (1/4 here) however many times it fails.
+    model = ForwardModel(coarse, SolverOptions(rtol=1e-20, max_final_attempts=1, min_step=0.25))
+    with pytest.raises(SolveError) as info:
+        model.solve(Parameters(smoothing=1e-4), Posture("bent45", 45.0))
+    assert "continuation stalled" in str(info.value)
+
+
 def test_max_final_attempts_must_be_positive():
     with pytest.raises(ValueError, match="max_final_attempts"):
         SolverOptions(max_final_attempts=0)
