@@ -61,25 +61,27 @@ def main(argv=None):
     rng = np.random.default_rng(0)
     points = [truth] + [truth * (1 + rng.uniform(-0.4, 0.4, 6)) for _ in range(4)]
     reference, energies, rows = {}, {}, []
-    for name in ["default"] + [v for v in args.variants.split(",") if v != "default"]:
-        options, minimiser = VARIANTS[name]
-        forward.newton = minimiser                          # solve_posture's Newton for this variant
-        model = forward.ForwardModel(mesh, forward.SolverOptions(**options))
-        for posture in paper_postures():
-            iterations, seconds, change, gaps = [], 0.0, 0.0, []
-            for i, values in enumerate(points):
-                tic = time.perf_counter()
-                solution = model.solve(base.with_identified(values), posture)
-                seconds += time.perf_counter() - tic
-                iterations.append(solution.iterations)
-                m = np.array(list(measure(mesh, solution.position, "paper15").values()))
-                reference.setdefault((posture.name, i), m)
-                change = max(change, float(np.abs(m / reference[(posture.name, i)] - 1).max()))
-                e0 = energies.setdefault((posture.name, i), solution.energy)
-                gaps.append((solution.energy - e0) / abs(e0))
-            rows.append([name, posture.name, " ".join(map(str, iterations)), f"{seconds:.2f}", f"{change:.1e}",
-                         f"{min(gaps):.1e} … {max(gaps):.1e}"])
-    forward.newton = newton
+    try:
+        for name in ["default"] + [v for v in args.variants.split(",") if v != "default"]:
+            options, minimiser = VARIANTS[name]
+            forward.newton = minimiser                          # solve_posture's Newton for this variant
+            model = forward.ForwardModel(mesh, forward.SolverOptions(**options))
+            for posture in paper_postures():
+                iterations, seconds, change, gaps = [], 0.0, 0.0, []
+                for i, values in enumerate(points):
+                    tic = time.perf_counter()
+                    solution = model.solve(base.with_identified(values), posture)
+                    seconds += time.perf_counter() - tic
+                    iterations.append(solution.iterations)
+                    m = np.array(list(measure(mesh, solution.position, "paper15").values()))
+                    reference.setdefault((posture.name, i), m)
+                    change = max(change, float(np.abs(m / reference[(posture.name, i)] - 1).max()))
+                    e0 = energies.setdefault((posture.name, i), solution.energy)
+                    gaps.append((solution.energy - e0) / abs(e0))
+                rows.append([name, posture.name, " ".join(map(str, iterations)), f"{seconds:.2f}", f"{change:.1e}",
+                             f"{min(gaps):.1e} … {max(gaps):.1e}"])
+    finally:
+        forward.newton = newton
     print_table(["variant", "posture", "Newton iterations (5 points)", "time (s)", "max ΔM", "ΔE range"], rows,
                 f"Cold solves on {args.level}")
 

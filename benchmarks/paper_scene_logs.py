@@ -15,7 +15,9 @@ per solve), and prints three tables:
   went on by δ continuation);
 - how often the final continuation step (full gravity, target δ, full tolerance)
   failed before a solve succeeded or gave up, which is what
-  ``SolverOptions.max_final_attempts`` caps.
+  ``SolverOptions.max_final_attempts`` caps; and, over the solves that gave up after
+  more failures than the cap allows, the seconds from their first failed final step to
+  the give-up against those up to the cap-th failure (the time the cap saves).
 
 Run it after ``snakemake --cores 2 results_page --configfile config/paper.yaml``;
 ``--since-hash`` keeps only the datasets written by code whose source hash starts so.
@@ -25,6 +27,7 @@ from __future__ import annotations
 
 import argparse
 import collections
+import datetime
 import re
 import statistics
 import sys
@@ -35,6 +38,7 @@ import xarray as xr
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from benchmarks._common import header, print_table  # noqa: E402
+from breastcore.forward import SolverOptions  # noqa: E402
 
 STEP = re.compile(r"breastcore\.forward: (\S+): step t=(\S+) load=\S+ δ=\S+: (.*) in \d+ iterations")
 CONVERGED = re.compile(r"breastcore\.forward: (\S+): converged in (\d+) iterations \((\d+) continuation")
@@ -55,17 +59,29 @@ def jobs(results: Path, since_hash: str | None):
     return out
 
 
-def solve_kinds(log: Path):
-    """Newton iterations per solve kind, and final-step failures before each outcome."""
+def _time(line):
+    return datetime.datetime.strptime(line[:23], "%Y-%m-%d %H:%M:%S,%f")
+
+
+def solve_kinds(log: Path, cap: int = SolverOptions().max_final_attempts):
+    """Newton iterations per solve kind, final-step failures before each outcome, retry time.
+
+    Returns ``(iterations, counts, outcomes, retry)``; ``retry["after first"]`` and
+    ``retry["up to cap"]`` sum, over the solves that gave up after more than ``cap``
+    failed final steps, the seconds from the first failure to the give-up and to the
+    ``cap``-th failure.
+    """
     iterations, counts = collections.Counter(), collections.Counter()
     outcomes = collections.Counter()                        # (outcome, final-step failures) -> solves
-    first_t, final_failures = {}, collections.Counter()
+    retry = collections.Counter()
+    first_t, final_failures, failed_at = {}, collections.Counter(), collections.defaultdict(list)
     for line in log.read_text(errors="replace").splitlines():
         if m := STEP.search(line):
             posture, t, message = m.group(1), float(m.group(2)), m.group(3)
             first_t.setdefault(posture, t)
             if t == 2.0 and not message.startswith("converged"):
                 final_failures[posture] += 1
+                failed_at[posture].append(_time(line))
         elif m := CONVERGED.search(line):
             posture, its, steps = m.group(1), int(m.group(2)), int(m.group(3))
             kind = "warm" if steps == 1 else "cold" if first_t.get(posture, 9.0) <= 1.0 else "warm fallback"
@@ -73,11 +89,16 @@ def solve_kinds(log: Path):
             counts[kind] += 1
             outcomes[("converged", final_failures.pop(posture, 0))] += 1
             first_t.pop(posture, None)
+            failed_at.pop(posture, None)
         elif m := GAVE_UP.search(line):
             posture = m.group(1)
             outcomes[("gave up", final_failures.pop(posture, 0))] += 1
             first_t.pop(posture, None)
-    return iterations, counts, outcomes
+            times = failed_at.pop(posture, [])
+            if len(times) > cap:
+                retry["after first"] += (_time(line) - times[0]).total_seconds()
+                retry["up to cap"] += (times[cap - 1] - times[0]).total_seconds()
+    return iterations, counts, outcomes, retry
 
 
 def main(argv=None):
@@ -91,7 +112,7 @@ def main(argv=None):
     for row in rows:
         by_level[row[1]].append(row)
     table, kinds = [], collections.defaultdict(lambda: [collections.Counter(), collections.Counter()])
-    outcomes = collections.Counter()
+    outcomes, retry = collections.Counter(), collections.Counter()
     for level, level_rows in by_level.items():
         times = [r[3] for r in level_rows]
         failed = [r[3] for r in level_rows if r[2] > 0]
@@ -100,10 +121,11 @@ def main(argv=None):
         for key, *_ in level_rows:
             log = args.results / "logs" / "identify" / f"{key}.log"
             if log.exists():
-                its, counts, outs = solve_kinds(log)
+                its, counts, outs, seconds = solve_kinds(log)
                 kinds[level][0].update(its)
                 kinds[level][1].update(counts)
                 outcomes.update(outs)
+                retry.update(seconds)
     total = sum(r[3] for r in rows)
     table.append(["all", len(rows), f"{total:.0f}", "", "", "", sum(r[2] > 0 for r in rows),
                   f"{sum(r[3] for r in rows if r[2] > 0):.0f}"])
@@ -114,6 +136,11 @@ def main(argv=None):
                  for level, c in kinds.items()], "Forward solves by kind")
     print_table(["outcome", "final-step failures before it", "solves"],
                 [[o, k, n] for (o, k), n in sorted(outcomes.items())], "Final continuation step")
+    cap = SolverOptions().max_final_attempts
+    print(f"Solves that gave up after more than {cap} failed final steps: "
+          f"{retry['after first']:.0f} s from the first failure to the give-up, "
+          f"{retry['up to cap']:.0f} s up to failure {cap}, so the cap saves "
+          f"{retry['after first'] - retry['up to cap']:.0f} s.")
 
 
 if __name__ == "__main__":

@@ -29,8 +29,13 @@ def test_solve_kinds_counts_cold_warm_and_final_step_failures(tmp_path):
             ForwardModel(mesh, SolverOptions(rtol=1e-20, max_final_attempts=2)).solve(Parameters(), posture)
         # identify logs a failed trial solve in this form
         logging.getLogger("breastcore.identify").info("identify: step rejected, forward solve failed (%s)", info.value)
-    iterations, counts, outcomes = solve_kinds(log)
+    iterations, counts, outcomes, retry = solve_kinds(log)
     assert counts == {"cold": 1, "warm": 1}
     assert iterations == {"cold": cold.iterations, "warm": warm.iterations}
     assert warm.continuation_steps == 1 and cold.continuation_steps > 1
     assert outcomes == {("converged", 0): 2, ("gave up", 2): 1}
+    assert retry == {}                                          # 2 failures, not more than the cap of 3
+    # against a cap of 1: timed from the first failure to the give-up, and to itself
+    retry = solve_kinds(log, cap=1)[3]
+    assert retry["after first"] > 0 and retry["up to cap"] == 0
+    assert solve_kinds(log, cap=2)[3] == {}                    # not more failures than the cap
