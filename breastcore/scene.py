@@ -9,15 +9,22 @@ import xarray as xr
 from .datasets import _var, open_dataset, provenance
 from .parameters import IDENTIFIED, PARAMETER_INFO
 from .solution import DIAGNOSTICS
+from .targets import measure_solution
 
 
-def synthetic_summary(runs, paths, name, config_hash=None, tables=(), sensitivity=()) -> xr.Dataset:
+def synthetic_summary(runs, paths, name, config_hash=None, tables=(), sensitivity=(), paper_table="none",
+                      truth=None, level_solutions=None) -> xr.Dataset:
     """One row per identification run: mesh, offset, errors, cost, iterations, time, success.
 
     ``tables`` names the extra results-page tables of the scene (``levels``,
-    ``evolution``); it is stored as the attribute ``tables``. ``sensitivity``: the
+    ``measurements``, ``evolution``); it is stored as the attribute ``tables``, and
+    ``paper_table`` (the paper's table to print beside, see
+    :mod:`breastcore.paper_values`) as ``paper_table``. ``sensitivity``: the
     scene's sensitivity datasets; the first one's matrices are copied in as
     ``sensitivity_*(parameter, measurement)``, with their ranks and conditions.
+    ``truth`` and ``level_solutions`` (``{level: path}``): the truth solution and a
+    solution at the same parameters on each level; with both, the summary carries
+    ``discretisation_error(level, posture, quantity) = M_level/M_truth − 1``.
     """
     rows = [open_dataset(p) for p in paths]
     rel = np.array([ds["relative_error"].values for ds in rows])
@@ -38,9 +45,16 @@ def synthetic_summary(runs, paths, name, config_hash=None, tables=(), sensitivit
         "success": _var(("run",), np.array([int(ds.attrs["success"]) for ds in rows]), "1", "1 if converged"),
         "forward_solves": _var(("run",), np.array([int(ds.attrs["forward_solves"]) for ds in rows]), "1",
                                "forward solves (all postures counted)"),
+        "final_measurement_error": _var(("run", "posture", "quantity"),
+                                        np.array([ds["measurement_error"].values[-1] for ds in rows]), "1",
+                                        "relative measurement error M(Λ̂)/M̄ − 1 at the estimate"),
     }
     coords = {"parameter": _var(("parameter",), np.array(IDENTIFIED), "1", "identified parameter"),
-              "identification": _var(("run",), np.array(paths), "1", "identification dataset")}
+              "identification": _var(("run",), np.array(paths), "1", "identification dataset"),
+              "posture": rows[0]["posture"].variable, "quantity": rows[0]["quantity"].variable}
+    if truth is not None and level_solutions:
+        data["discretisation_error"], coords["level"] = discretisation_error(truth, level_solutions,
+                                                                             rows[0].attrs["measurement_set"])
     extra = {}
     if sensitivity:
         sens = open_dataset(sensitivity[0])
@@ -53,8 +67,24 @@ def synthetic_summary(runs, paths, name, config_hash=None, tables=(), sensitivit
         extra["sensitivity_mesh"] = runs[0]["mesh"]        # the plan analyses the scene's first run
     ds = xr.Dataset(data, coords=coords)
     ds.attrs = provenance("scene", None, config_hash, scene=name, scene_kind="synthetic", tables=",".join(tables),
+                          paper_table=paper_table,
                           title=f"synthetic identification study {name}", **extra)
     return ds
+
+
+def discretisation_error(truth, level_solutions, measurement_set):
+    """``(variable, level coordinate)``: each level's measurements at the truth's Λ over the truth's, minus 1.
+
+    The paper's Table 2 residual is the mean of its squares: the discretisation gap
+    of a level, with no identification involved.
+    """
+    reference, _ = measure_solution(open_dataset(truth), measurement_set)
+    gaps = [measure_solution(open_dataset(path), measurement_set)[0].values / reference.values - 1.0
+            for path in level_solutions.values()]
+    return (_var(("level", "posture", "quantity"), np.array(gaps), "1",
+                 "M_level(Λ̄)/M_truth(Λ̄) − 1: measurements at the truth parameters on each level against the "
+                 "truth mesh's"),
+            _var(("level",), np.array(list(level_solutions)), "1", "mesh level"))
 
 
 def error_table(summary: xr.Dataset) -> pd.DataFrame:

@@ -114,8 +114,13 @@ class Plan:
                                      "identification": path})
         sens = [self.sensitivity(r["identification"], scene["sensitivity"]) for r in runs[:1]
                 if scene["sensitivity"] != "none"]
-        return self._scene(name, "synthetic", {"runs": runs, "truth": truth, "sensitivity": sens,
-                                               "tables": list(scene.get("tables", []))})
+        tables = list(scene.get("tables", []))
+        # The paper's Table 2 residual: each level solved at the truth, no identification.
+        levels = dict.fromkeys(r["mesh"] for r in runs) if "levels" in tables else {}
+        level_solutions = {level: self.solve(self.mesh(level), scene["truth"], postures) for level in levels}
+        return self._scene(name, "synthetic", {"runs": runs, "truth": truth, "sensitivity": sens, "tables": tables,
+                                               "paper_table": scene.get("paper_table", "none"),
+                                               "level_solutions": level_solutions})
 
     def _patient(self, name, scene):
         postures = {k: dict(v) for k, v in scene["postures"].items()}
@@ -178,7 +183,8 @@ class Plan:
         """Datasets a scene summary reads."""
         spec = self.jobs["scene"][summary_path]
         if spec["kind"] == "synthetic":
-            return [r["identification"] for r in spec["runs"]] + spec["sensitivity"] + [spec["truth"]]
+            return ([r["identification"] for r in spec["runs"]] + spec["sensitivity"] + [spec["truth"]]
+                    + list(spec.get("level_solutions", {}).values()))
         if spec["kind"] == "patient":
             return [spec["identification"], *spec["sensitivity"]]
         if spec["kind"] == "stability":

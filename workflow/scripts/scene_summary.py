@@ -13,7 +13,9 @@ def main(snakemake):
             ds = stability_summary(spec["chunks"], name, spec_key(spec), guesses=spec.get("guesses", []))
         elif spec["kind"] == "synthetic":
             ds = synthetic_summary(spec["runs"], [r["identification"] for r in spec["runs"]], name, spec_key(spec),
-                                   tables=spec.get("tables", []), sensitivity=spec.get("sensitivity", []))
+                                   tables=spec.get("tables", []), sensitivity=spec.get("sensitivity", []),
+                                   paper_table=spec.get("paper_table", "none"), truth=spec["truth"],
+                                   level_solutions=spec.get("level_solutions"))
         else:
             source = spec["identification"] if spec["kind"] == "patient" else spec["solution"]
             ds = solution_summary(source, name, spec["kind"], spec_key(spec))
