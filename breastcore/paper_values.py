@@ -51,12 +51,15 @@ ANNEX_A_CYCLES_TIME = {LEVEL_BY_NODES[n]: {"iterations": c, "time_s": t}
                        for n, c, t in ((226, 12, 196.0), (1014, 13, 696.0), (2498, 14, 1587.0))}
 
 #: Annex, case A: mean |M/M̄ − 1| (%) per measurement m1..m15 and the mean cost E.
-#: The paper labels these rows Coarse, Medium and Thin without node counts, so they
-#: are keyed by its labels, not matched to our levels.
+#: The paper labels these rows Coarse, Medium and Thin without node counts (its annex
+#: names its meshes coarse, thin and ultra-thin, N = 226, 1014, 2498, so Medium and
+#: Thin are probably 1014 and 2498); they are keyed by its labels, not matched to ours.
 ANNEX_A_MEASUREMENTS = {
     "Coarse": (0.47, 0.64, 0.87, 0.52, 6.53, 0.73, 0.51, 0.80, 0.76, 8.23, 0.67, 0.43, 0.51, 0.56, 7.52),
     "Medium": (0.48, 0.61, 0.82, 0.51, 6.21, 0.67, 0.63, 0.83, 0.75, 7.11, 0.73, 0.52, 0.57, 0.55, 5.87),
     "Thin": (0.48, 0.50, 0.79, 0.51, 6.18, 0.61, 0.51, 0.85, 0.73, 7.17, 0.67, 0.47, 0.52, 0.55, 5.73)}
+#: As printed; not the relative cost of the errors above (their e5, e10 and e15 alone
+#: give Σ (e/100)² ≥ 0.017), so the results page does not set it beside ours.
 ANNEX_A_COST = {"Coarse": 1.99e-6, "Medium": 1.81e-6, "Thin": 1.72e-6}
 
 #: Annex, case B (case A plus measurement errors up to 10 %): mean parameter error (%).

@@ -76,11 +76,16 @@ def discretisation_error(truth, level_solutions, measurement_set):
     """``(variable, level coordinate)``: each level's measurements at the truth's Λ over the truth's, minus 1.
 
     The paper's Table 2 residual is the mean of its squares: the discretisation gap
-    of a level, with no identification involved.
+    of a level, with no identification involved. A posture whose solve (on the level
+    or on the truth mesh) did not converge gives NaN, never a number.
     """
-    reference, _ = measure_solution(open_dataset(truth), measurement_set)
-    gaps = [measure_solution(open_dataset(path), measurement_set)[0].values / reference.values - 1.0
-            for path in level_solutions.values()]
+    def measured(path):
+        with open_dataset(path) as ds:
+            values = measure_solution(ds, measurement_set)[0].values
+            return np.where(ds["converged"].values.astype(bool)[:, None], values, np.nan)
+
+    reference = measured(truth)
+    gaps = [measured(path) / reference - 1.0 for path in level_solutions.values()]
     return (_var(("level", "posture", "quantity"), np.array(gaps), "1",
                  "M_level(Λ̄)/M_truth(Λ̄) − 1: measurements at the truth parameters on each level against the "
                  "truth mesh's"),

@@ -1,0 +1,83 @@
+"""The results page's tables, on small hand-made summaries: ours beside the paper's."""
+
+import numpy as np
+import pytest
+import xarray as xr
+
+from breastcore import paper_values as paper
+from breastcore.parameters import IDENTIFIED
+from breastcore.results_page import evolution_table, level_table, measurement_table, paper_comparison_table
+
+
+def summary(meshes, errors, times, offsets=None):
+    n = len(meshes)
+    return xr.Dataset({
+        "mesh": ("run", np.array(meshes)), "relative_error": (("run", "parameter"), np.array(errors, float)),
+        "wall_time": ("run", np.array(times, float)), "iterations": ("run", np.arange(n) + 10),
+        "measurement_residual": ("run", np.linspace(0.01, 0.02, n)), "cost": ("run", np.linspace(1e-3, 2e-3, n)),
+        "offset": ("run", np.array(offsets or [0.3] * n)),
+        "final_measurement_error": (("run", "posture", "quantity"), np.linspace(-0.05, 0.05, n * 15).reshape(n, 3, 5)),
+    }, coords={"parameter": list(IDENTIFIED)})
+
+
+def test_comparison_pairs_our_mean_error_with_the_papers_row_and_keeps_its_other_rows():
+    rng = np.random.default_rng(0)
+    errors = rng.uniform(-0.5, 0.5, (3, 6))
+    table = paper_comparison_table(summary(["coarse", "coarse", "medium"], errors, [1, 3, 5]), "annex_a")
+    ours = table[table["source"] == "ours (2 runs)"].iloc[0]
+    assert ours["mesh"] == "coarse"
+    assert ours[list(IDENTIFIED)].to_numpy(float) == pytest.approx(100 * np.abs(errors[:2]).mean(axis=0))
+    assert ours["time_s"] == 2 and ours["iterations"] == 10.5
+    papers = table[table["source"] == "paper"].set_index("mesh")
+    assert papers.loc["coarse", "mu_skin"] == 15.72 and papers.loc["coarse", "time_s"] == 196
+    assert np.isnan(papers.loc["medium", "R"])                      # the annex has no 572-node row
+    # rows the scene did not run are kept, with the paper's cycles and time
+    assert papers.loc["ultra-thin", "iterations"] == 14 and papers.loc["ultra-thin", "time_s"] == 1587
+    assert list(table["mesh"]) == ["coarse", "coarse", "medium", "medium", "medium-thin", "ultra-thin"]
+
+
+def test_level_table_orders_by_node_count_and_computes_the_papers_residual():
+    ds = summary(["medium", "coarse", "medium"], np.zeros((3, 6)), [6, 2, 8])
+    gap = np.full((2, 3, 5), 0.02)
+    gap[1] = 0.01
+    ds["discretisation_error"] = (("level", "posture", "quantity"), gap)
+    ds = ds.assign_coords(level=["coarse", "medium"])
+    table = level_table(ds)
+    assert list(table.index) == ["coarse", "medium"]
+    assert list(table["relative_time"]) == [1.0, 3.5]               # median 7 s over the coarse 2 s
+    assert table.loc["coarse", "residual_at_truth"] == pytest.approx(4e-4)
+    assert table.loc["medium", "residual_at_truth"] == pytest.approx(1e-4)
+    assert table.loc["medium", "paper_residual_at_truth"] == paper.TABLE2["medium"]["residual"]
+
+
+def test_measurement_table_sets_the_papers_case_a_rows_beside_only_when_asked():
+    ds = summary(["coarse", "coarse"], np.zeros((2, 6)), [1, 1])
+    plain = measurement_table(ds)
+    assert list(plain["mesh"]) == ["coarse (ours)"]
+    expected = 100 * np.abs(ds["final_measurement_error"].values.reshape(2, 15)).mean(axis=0)
+    assert plain.iloc[0][[f"m{i}" for i in range(1, 16)]].to_numpy(float) == pytest.approx(expected)
+    assert plain.iloc[0]["avg"] == pytest.approx(expected.mean())
+    beside = measurement_table(ds, with_paper=True)
+    assert list(beside["mesh"]) == ["coarse (ours)", "Coarse (paper)", "Medium (paper)", "Thin (paper)"]
+    assert beside.iloc[1]["m5"] == 6.53 and np.isnan(beside.iloc[1]["cost"])
+
+
+def test_evolution_table_is_unsigned_like_the_paper_and_shows_its_row_once_per_mesh(tmp_path):
+    truth = np.array([0.05, 0.04, 1000.0, 150.0, 8000.0, 1600.0])
+    paths = []
+    for k in range(2):
+        factors = np.ones((26, 6))
+        factors[15:, 2] = 0.9 + 0.01 * np.arange(11) * (k + 1) / 10      # λ 10 % low, drifting
+        path = tmp_path / f"run{k}.nc"
+        xr.Dataset({"parameters": (("iteration", "parameter"), truth * factors),
+                    "truth": ("parameter", truth)}).to_netcdf(path)
+        paths.append(str(path))
+    ds = xr.Dataset({"mesh": ("run", ["thin", "thin"]), "method": ("run", ["gn", "gn"]),
+                     "identification": ("run", paths)})
+    table = evolution_table(ds)
+    assert list(table["source"]) == ["ours, gn", "paper", "ours, gn"]
+    window = 100 * (0.9 + 0.01 * np.arange(11) / 10 - 1)
+    assert table.iloc[0]["lambda_breast mean %"] == pytest.approx(np.abs(window).mean())
+    assert table.iloc[0]["lambda_breast sd %"] == pytest.approx(window.std(ddof=1))
+    assert table.iloc[0]["R mean %"] == pytest.approx(0, abs=1e-12)
+    assert table.iloc[1]["lambda_breast mean %"] == paper.EVOLUTION_MEAN["thin"]["lambda_breast"]
