@@ -81,3 +81,22 @@ def test_evolution_table_is_unsigned_like_the_paper_and_shows_its_row_once_per_m
     assert table.iloc[0]["lambda_breast sd %"] == pytest.approx(window.std(ddof=1))
     assert table.iloc[0]["R mean %"] == pytest.approx(0, abs=1e-12)
     assert table.iloc[1]["lambda_breast mean %"] == paper.EVOLUTION_MEAN["thin"]["lambda_breast"]
+
+
+def test_discretisation_error_is_zero_against_itself_and_nan_where_a_solve_did_not_converge(tmp_path):
+    from breastcore.datasets import open_dataset, write_netcdf
+    from breastcore.pipeline import run_mesh, run_solve
+    from breastcore.scene import discretisation_error
+
+    run_mesh({"level": "coarse"}, tmp_path / "mesh.nc")
+    postures = [{"name": "standing", "angle": 0.0}, {"name": "fours", "angle": 90.0}]
+    run_solve({"parameters": {}, "postures": postures, "solver": {}}, tmp_path / "mesh.nc", tmp_path / "a.nc")
+    with open_dataset(tmp_path / "a.nc") as ds:
+        failed = ds.load()
+    failed["converged"].values[0] = 0                                  # as if standing had not converged
+    write_netcdf(failed, tmp_path / "b.nc")
+    gap, level = discretisation_error(str(tmp_path / "a.nc"), {"coarse": str(tmp_path / "a.nc"),
+                                                               "other": str(tmp_path / "b.nc")}, "paper15")
+    assert list(level.values) == ["coarse", "other"] and gap.dims == ("level", "posture", "quantity")
+    assert np.all(gap.values[0] == 0)
+    assert np.all(np.isnan(gap.values[1, 0])) and np.all(gap.values[1, 1] == 0)
