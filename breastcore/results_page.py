@@ -87,8 +87,9 @@ def level_table(ds) -> pd.DataFrame:
 
     Medians over the scene's runs of each level (every method and offset), rows from
     the coarsest level to the finest. The run time is relative to the scene's
-    coarsest level (fewest nodes), as the paper's is to its coarse mesh. ``residual_at_truth`` is the paper's Table 2 quantity: the mean over
-    the measurements of ``(M_level(Λ̄)/M_truth − 1)²``, the level's measurements at the
+    coarsest level (fewest nodes), as the paper's is to its coarse mesh.
+    ``residual_at_truth`` is the paper's Table 2 quantity: the mean over the
+    measurements of ``(M_level(Λ̄)/M_truth − 1)²``, the level's measurements at the
     true parameters against the truth mesh's (present when the summary carries
     ``discretisation_error``). The paper's values are beside, where it has the level.
     """
