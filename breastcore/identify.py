@@ -51,6 +51,14 @@ class IdentificationOptions:
         Relative step ε of the finite-difference Jacobian.
     cost_tol : float
         Gauss–Newton stops when the cost decrease is below ``cost_tol`` (ε_m).
+    cost_rtol : float
+        Both methods: stop, converged, after the first accepted step that lowers
+        the cost by less than ``cost_rtol`` times the cost before it,
+        ``E(Λⁿ) − E(Λⁿ⁺¹) < cost_rtol · E(Λⁿ)``: the paper's ε_m test made
+        relative. 0 (default) turns it off. Unlike ``ftol``, it asks nothing of
+        the step's agreement with the quadratic model, so a run stops exactly
+        where its recorded cost history first meets it: a run with
+        ``cost_rtol`` is the prefix of the same run without it.
     xtol, ftol, gtol : float
         ``least_squares`` stopping tolerances (LM).
     max_iterations : int
@@ -77,6 +85,7 @@ class IdentificationOptions:
     jacobian: str = "implicit"
     fd_step: float = 1e-4
     cost_tol: float = 1e-14
+    cost_rtol: float = 0.0
     xtol: float = 1e-8
     ftol: float = 1e-8
     gtol: float = 1e-10
@@ -92,6 +101,8 @@ class IdentificationOptions:
             raise ValueError(f"jacobian must be 'implicit' or 'fd', got {self.jacobian!r}")
         if not (self.fd_step > 0 and self.noise > 0 and self.max_iterations > 0 and self.initial_trust_radius > 0):
             raise ValueError("fd_step, noise, max_iterations and initial_trust_radius must be > 0")
+        if not 0 <= self.cost_rtol < 1:
+            raise ValueError(f"cost_rtol must be in [0, 1), got {self.cost_rtol!r}")
         if self.fixed_iterations and self.method != "gauss-newton":
             raise ValueError("fixed_iterations applies to method 'gauss-newton' only")
 
@@ -304,7 +315,7 @@ def _levenberg_marquardt(mm, target, sqrt_w, initial, solutions, options, result
 
     # scipy also calls back after an iteration whose last trial step it rejected while
     # stopping (xtol): that one is neither counted nor recorded.
-    last = {"x": np.zeros_like(z0), "cost": 0.5 * result.cost[-1], "converged": False}
+    last = {"x": np.zeros_like(z0), "cost": 0.5 * result.cost[-1], "converged": False, "plateau": False}
 
     def on_step(intermediate_result):
         x, cost = intermediate_result.x, float(intermediate_result["cost"])
@@ -314,6 +325,9 @@ def _levenberg_marquardt(mm, target, sqrt_w, initial, solutions, options, result
         last.update(x=x.copy(), cost=cost)
         callback(_Point(to_z(x)))
         result.iterations += 1
+        if old_cost - cost < options.cost_rtol * old_cost:
+            last["plateau"] = True
+            raise StopIteration
         if result.cost[-1] <= EXACT_FIT or result.iterations >= options.max_iterations:
             # at the cap, scipy's own tests on this step (without ftol's step-quality ratio) say
             # whether it would have stopped converged here anyway
@@ -330,16 +344,24 @@ def _levenberg_marquardt(mm, target, sqrt_w, initial, solutions, options, result
         result.solutions = sols
         record(values, sols)
     exact = out.status == -2 and result.cost[-1] <= EXACT_FIT
-    converged_at_cap = out.status == -2 and not exact and last["converged"]
-    result.success = bool(out.status > 0 or exact or converged_at_cap) and np.all(np.abs(out.fun) < FAILED_RESIDUAL)
+    plateau = out.status == -2 and last["plateau"]
+    converged_at_cap = out.status == -2 and not exact and not plateau and last["converged"]
+    result.success = bool(out.status > 0 or exact or plateau or converged_at_cap) and np.all(np.abs(out.fun) < FAILED_RESIDUAL)
     if exact:
         result.message = f"exact fit: cost {result.cost[-1]:.2e} ≤ {EXACT_FIT:g}"
+    elif plateau:
+        result.message = _plateau_message(result.cost, options.cost_rtol)
     elif converged_at_cap:
         result.message = f"ftol or xtol met at the iteration limit ({options.max_iterations})"
     elif out.status == -2:
         result.message = f"iteration limit ({options.max_iterations})"
     else:
         result.message = out.message
+
+
+def _plateau_message(cost, cost_rtol):
+    return (f"relative cost decrease {(cost[-2] - cost[-1]) / cost[-2]:.2e} below cost_rtol = {cost_rtol:g} "
+            f"(E = {cost[-1]:.3e})")
 
 
 class _Point:
@@ -384,6 +406,10 @@ def _gauss_newton(mm, target, sqrt_w, initial, solutions, options, result, recor
         if decrease < options.cost_tol:
             result.success = True
             result.message = f"cost decrease below ε_m = {options.cost_tol:g}"
+            return
+        if decrease < options.cost_rtol * (cost + decrease):
+            result.success = True
+            result.message = _plateau_message(result.cost, options.cost_rtol)
             return
     result.message = (f"fixed iteration count ({options.max_iterations}) done; ε_m not tested"
                       if options.fixed_iterations else f"iteration limit ({options.max_iterations})")

@@ -238,3 +238,37 @@ def test_fixed_iterations_runs_them_all_and_claims_no_convergence():
     assert result.cost[-1] < 1e-12 < result.cost[2]            # it went on past the rise and converged anyway
     with pytest.raises(ValueError, match="'gauss-newton' only"):
         IdentificationOptions(fixed_iterations=True)
+
+
+@pytest.mark.parametrize("method", ["lm", "gauss-newton"])
+def test_cost_rtol_stops_the_same_run_at_its_first_small_relative_decrease(method):
+    """With cost_rtol the history is the prefix, bit for bit, of the run without it, cut after
+    the first accepted step with E(Λⁿ) − E(Λⁿ⁺¹) < cost_rtol · E(Λⁿ); the stop counts as converged.
+    Data 2 % off the model, so that the cost levels off above zero."""
+    def fresh():        # no warm state carried over between the two runs
+        return MeasurementModel(ForwardModel(mesh_level("coarse")), Parameters(), paper_postures())
+
+    mm = fresh()
+    target = mm.measure(mm.solve(TRUTH)) * (1 + 0.02 * np.where(np.arange(15) % 2 == 0, 1.0, -1.0).reshape(3, 5))
+    start = TRUTH * np.array([1.2, 0.9, 1.2, 0.8, 1.2, 0.8])
+    jacobian = "fd" if method == "gauss-newton" else "implicit"
+    full = identify(fresh(), target, start, IdentificationOptions(method=method, jacobian=jacobian, max_iterations=12))
+    cost = np.array(full.cost)
+    relative_decrease = (cost[:-1] - cost[1:]) / cost[:-1]
+    cost_rtol = 0.05
+    small = np.flatnonzero(relative_decrease < cost_rtol)
+    assert small.size and small[0] + 1 < full.iterations      # the test fires before the full run ends
+    stop = small[0] + 1                                       # iterations done when it fires
+    cut = identify(fresh(), target, start, IdentificationOptions(method=method, jacobian=jacobian,
+                                                                 max_iterations=12, cost_rtol=cost_rtol))
+    assert cut.success and "below cost_rtol = 0.05" in cut.message
+    assert cut.iterations == stop
+    np.testing.assert_array_equal(np.array(cut.parameters)[:stop + 1], np.array(full.parameters)[:stop + 1])
+    np.testing.assert_array_equal(cut.cost[:stop + 1], full.cost[:stop + 1])
+    assert cut.wall_time[stop] < full.wall_time[-1]
+
+
+@pytest.mark.parametrize("value", [-0.1, 1.0, 2.0])
+def test_cost_rtol_outside_0_1_is_refused(value):
+    with pytest.raises(ValueError, match="cost_rtol must be in"):
+        IdentificationOptions(cost_rtol=value)

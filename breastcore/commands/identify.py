@@ -37,6 +37,9 @@ def register(sub):
     p.add_argument("--solver", choices=["newton", "cg"], default="newton", help="forward solver (default newton)")
     p.add_argument("--fd-step", type=float, default=1e-4, help="relative FD step ε (default 1e-4)")
     p.add_argument("--cost-tol", type=float, default=1e-14, help="Gauss-Newton stop ε_m on the cost decrease (default 1e-14)")
+    p.add_argument("--cost-rtol", type=float, default=0.0,
+                   help="both methods: stop, converged, after an accepted step that lowers the cost by less than "
+                        "this fraction of it (default 0: off)")
     p.add_argument("--max-iterations", type=int, default=50, help="iteration limit (default 50)")
     p.add_argument("--noise", type=float, default=0.10,
                    help="relative 1σ measurement noise of the uncertainty model (default 0.10)")
@@ -70,7 +73,8 @@ def run(args):
         raise UsageError(f"--initial: {err}") from None
     try:
         options = IdentificationOptions(method=args.method, jacobian=args.jacobian, fd_step=args.fd_step,
-                                        cost_tol=args.cost_tol, max_iterations=args.max_iterations, noise=args.noise,
+                                        cost_tol=args.cost_tol, cost_rtol=args.cost_rtol,
+                                        max_iterations=args.max_iterations, noise=args.noise,
                                         initial_trust_radius=args.initial_trust_radius,
                                         fixed_iterations=args.fixed_iterations)
     except ValueError as err:

@@ -4,6 +4,7 @@ import os
 import json
 
 from breastcore import source_hash
+from breastcore.mesh import LEVEL_NODE_COUNTS
 from breastcore.workflow_plan import Plan
 
 PLAN = Plan(config)
@@ -29,6 +30,25 @@ def job(stage):
 
 def scene_of(wildcards):
     return PLAN.scene(wildcards.scene)
+
+
+# Scheduling only, no effect on any result. A finite sensitivity (one long single-core
+# job) and the identification it needs go first, so that it runs beside the rest instead
+# of last; then the finer meshes first (longest jobs first), so that no long job is left
+# alone at the end while the other core idles.
+FINITE_SENSITIVITY_BASES = {spec["identification"] for spec in PLAN.jobs["sensitivity"].values() if spec["finite"]}
+LEVEL_PRIORITY = {level: rank for rank, level in enumerate(LEVEL_NODE_COUNTS)}
+
+
+def identify_priority(wildcards):
+    path = f"{RESULTS}/identify/{wildcards.key}.nc"
+    if path in FINITE_SENSITIVITY_BASES:
+        return 100
+    return LEVEL_PRIORITY.get(PLAN.jobs["mesh"][identify_spec(wildcards)["mesh"]].get("level"), 0)
+
+
+def sensitivity_priority(wildcards):
+    return 100 if PLAN.jobs["sensitivity"][f"{RESULTS}/sensitivity/{wildcards.key}.nc"]["finite"] else 0
 
 
 def identify_spec(wildcards):

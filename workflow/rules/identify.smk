@@ -5,6 +5,7 @@ rule identify:
     output: f"{RESULTS}/identify/{{key}}.nc"
     log: f"{RESULTS}/logs/identify/{{key}}.log"
     benchmark: f"{RESULTS}/benchmarks/identify/{{key}}.tsv"
+    priority: identify_priority
     params:
         spec=job("identify"),
         code=COMPUTE_CODE,

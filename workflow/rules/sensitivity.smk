@@ -3,7 +3,11 @@ rule sensitivity:
     output: f"{RESULTS}/sensitivity/{{key}}.nc"
     log: f"{RESULTS}/logs/sensitivity/{{key}}.log"
     benchmark: f"{RESULTS}/benchmarks/sensitivity/{{key}}.tsv"
-    threads: 2      # the finite version's 2n re-identifications run in forked processes (scaled down to --cores)
+    # One core: the finite version's 2n re-identifications run one after the other, beside
+    # the scene's other jobs (priority). With 2 forked processes it could only start once
+    # both cores were free, i.e. last, and its uneven halves left one core idle for minutes.
+    threads: 1
+    priority: sensitivity_priority
     params:
         spec=job("sensitivity"),
         code=COMPUTE_CODE,
