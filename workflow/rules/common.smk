@@ -36,6 +36,11 @@ def scene_of(wildcards):
 # job) and the identification it needs go first, so that it runs beside the rest instead
 # of last; then the finer meshes first (longest jobs first), so that no long job is left
 # alone at the end while the other core idles.
+# Rule priorities do not pass to a job's inputs (only `--prioritize` targets do), so the
+# short mesh, solve and measure jobs that the identifications wait on rank above them all:
+# otherwise a ready identification of higher priority always wins, and a scene whose data
+# is not measured yet waits until every other identification has run.
+UPSTREAM_PRIORITY = 1000
 FINITE_SENSITIVITY_BASES = {spec["identification"] for spec in PLAN.jobs["sensitivity"].values() if spec["finite"]}
 LEVEL_PRIORITY = {level: rank for rank, level in enumerate(LEVEL_NODE_COUNTS)}
 

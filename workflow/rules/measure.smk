@@ -3,6 +3,7 @@ rule measure:
     output: f"{RESULTS}/measure/{{key}}.nc"
     log: f"{RESULTS}/logs/measure/{{key}}.log"
     benchmark: f"{RESULTS}/benchmarks/measure/{{key}}.tsv"
+    priority: UPSTREAM_PRIORITY
     params:
         spec=job("measure"),
         code=COMPUTE_CODE,

@@ -3,6 +3,7 @@ rule solve:
     output: f"{RESULTS}/solve/{{key}}.nc"
     log: f"{RESULTS}/logs/solve/{{key}}.log"
     benchmark: f"{RESULTS}/benchmarks/solve/{{key}}.tsv"
+    priority: UPSTREAM_PRIORITY
     params:
         spec=job("solve"),
         code=COMPUTE_CODE,
