@@ -49,3 +49,14 @@ def test_unwritable_output_path_is_rejected(tmp_path):
     blocker.write_text("not a folder")
     out = run("solve", "--out", str(blocker / "x.nc"))
     assert out.returncode == 2 and "--out" in out.stderr and len(out.stderr.strip().splitlines()) == 1
+
+
+@pytest.mark.parametrize("value", ["1.5", "-0.1"])
+def test_bad_identify_cost_rtol_is_one_line_naming_the_option(tmp_path, value):
+    (tmp_path / "m.nc").write_text("")          # exists; the option is refused before it is read
+    out = run("identify", "--measurements", str(tmp_path / "m.nc"), "--cost-rtol", value,
+              "--out", str(tmp_path / "x.nc"))
+    assert out.returncode == 2
+    lines = out.stderr.strip().splitlines()
+    assert len(lines) == 1 and "--cost-rtol" in lines[0], out.stderr
+    assert not (tmp_path / "x.nc").exists()

@@ -58,6 +58,8 @@ def register(sub):
 def run(args):
     if args.processes < 1:
         raise UsageError(f"--processes must be ≥ 1, got {args.processes}")
+    if not 0 <= args.cost_rtol < 1:
+        raise UsageError(f"--cost-rtol must be in [0, 1), got {args.cost_rtol:g}")
     from ..datasets import open_dataset, write_netcdf
     from ..forward import ForwardModel, SolverOptions
     from ..identification_dataset import identification_dataset
