@@ -16,7 +16,9 @@ and the mean |Λ/Λ_true − 1| over the six parameters and the runs.
 
 ``--compare NEW`` checks the prediction against a run made with ``cost_rtol``: each new
 run is matched to the old run with the same level, initial guess and data, and must
-equal its history's prefix, ending where the replay says.
+equal its history's prefix, ending where the replay says (or going on from there by a
+branch restart). It also prints the time both runs took for the iterations they share
+(the machine's speed on the day) and the time of the restarts.
 """
 
 from __future__ import annotations
@@ -81,8 +83,10 @@ def replay_table(runs, thresholds):
 
 
 def compare(old_runs, new_runs, cost_rtol):
+    """Outcome counts of the new runs against the replay, and the time of the iterations both did."""
     old = {r["match"]: r for r in old_runs}
     counts = collections.Counter()
+    same_new = same_old = restart_time = 0.0
     for new in new_runs:
         ref = old.get(new["match"])
         if ref is None:
@@ -90,16 +94,23 @@ def compare(old_runs, new_runs, cost_rtol):
             continue
         stop = plateau_stop(ref["cost"], cost_rtol)
         n = len(new["cost"]) - 1
-        prefix = n <= len(ref["cost"]) - 1 and np.array_equal(new["parameters"], ref["parameters"][:n + 1])
-        if new["restarts"]:
-            counts["branch restart after the stop"] += 1
-        elif prefix and n == stop:
-            counts["prefix, stopped where replayed"] += 1
-        elif prefix:
-            counts["prefix, stopped elsewhere"] += 1
-        else:
+        upto = min(n, stop)
+        prefix = np.array_equal(new["parameters"][:upto + 1], ref["parameters"][:upto + 1])
+        if not prefix:
             counts["not a prefix"] += 1
+            continue
+        same_new += new["wall_time"][upto]
+        same_old += ref["wall_time"][upto]
+        if new["restarts"]:
+            counts["prefix up to the replayed stop, then a branch restart"] += 1
+            restart_time += new["wall_time"][-1] - new["wall_time"][upto]
+        elif n == stop:
+            counts["prefix, stopped where replayed"] += 1
+        else:
+            counts["prefix, stopped elsewhere"] += 1
     print_table(["outcome", "runs"], sorted(counts.items()), title=f"New runs (cost_rtol = {cost_rtol:g}) against the replay")
+    print(f"iterations both runs did: {same_new:.0f} s now, {same_old:.0f} s before (ratio {same_new / same_old:.3f}); "
+          f"after the stop, branch restarts took {restart_time:.0f} s\n")
 
 
 def main(argv=None):
