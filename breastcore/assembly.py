@@ -70,15 +70,21 @@ class FreeDofAssembler:
             scatter_blocks(data, positions, np.ascontiguousarray(H, dtype=float))
         return self._matrix(data)
 
-    def assemble_terms(self, terms, x):
+    def assemble_terms(self, terms, x, project=False):
         """CSR Hessian of ``terms`` (in constructor order) at node positions ``x``.
 
         A term with ``scatter_hessian(data, positions, x)`` adds its entries straight
-        into the CSR data; the others give ``element_hessians(x)`` blocks.
+        into the CSR data; the others give ``element_hessians(x)`` blocks. With
+        ``project``, the PSD-projected Hessian: ``scatter_projected_hessian`` or
+        ``projected_element_hessians``.
         """
         data = np.zeros(self.nnz)
         for term, positions in zip(terms, self.positions):
-            if hasattr(term, "scatter_hessian"):
+            if project and hasattr(term, "scatter_projected_hessian"):
+                term.scatter_projected_hessian(data, positions, x)
+            elif project:
+                scatter_blocks(data, positions, np.ascontiguousarray(term.projected_element_hessians(x), dtype=float))
+            elif hasattr(term, "scatter_hessian"):
                 term.scatter_hessian(data, positions, x)
             else:
                 scatter_blocks(data, positions, np.ascontiguousarray(term.element_hessians(x), dtype=float))

@@ -161,6 +161,43 @@ class BulkNeoHookean:
         compiled.scatter_bulk_hessian(data, positions, np.ascontiguousarray(x, dtype=float), self.connectivity,
                                       self.shape_gradients, self.volume, self.lam, self.mu)
 
+    def scatter_projected_hessian(self, data, positions, x):
+        """Add :meth:`projected_element_hessians` into CSR ``data`` (compiled, analytic eigensystem)."""
+        compiled.scatter_bulk_hessian_projected(data, positions, np.ascontiguousarray(x, dtype=float),
+                                                self.connectivity, self.shape_gradients, self.volume, self.lam,
+                                                self.mu)
+
+    def tangent_moduli(self, x):
+        r"""``C = ∂²W/∂F²`` of every tet, ``(T, 9, 9)`` in Pa, rows and columns ``vec F`` (row-major).
+
+        ``C_{ij,kl} = μ δ_ik δ_jl + c_swap F⁻¹_li F⁻¹_jk + c_vol F⁻¹_ji F⁻¹_lk``
+        (:func:`breastcore.kernels.bulk_neo_hookean`).
+        """
+        F, J, trace_C, cof = self._kinematics(x)
+        _, _, c_swap, c_vol = kernels.bulk_neo_hookean(J, trace_C, self.lam, self.mu)
+        Finv = np.swapaxes(cof, 1, 2) / J[:, None, None]
+        C = self.mu * np.einsum("ik,jl->ijkl", np.eye(3), np.eye(3))[None] \
+            + c_swap[:, None, None, None, None] * np.einsum("nli,njk->nijkl", Finv, Finv) \
+            + c_vol[:, None, None, None, None] * np.einsum("nji,nlk->nijkl", Finv, Finv)
+        return C.reshape(len(F), 9, 9)
+
+    def projected_element_hessians(self, x):
+        r"""Reference numpy version of the PSD-projected blocks ``(T, 12, 12)``.
+
+        Notes
+        -----
+        The block is ``|τ| Bᵀ C⁺ B`` where ``C⁺`` is :meth:`tangent_moduli` with its
+        negative eigenvalues set to zero (numerical ``eigh`` here; the compiled
+        :meth:`scatter_projected_hessian` uses the analytic eigensystem) and
+        ``(B x_e)_{ij} = Σ_a x_{ai} ∂_j N_a``. Since ``B`` has rank 9, the block is
+        PSD, and equals :meth:`element_hessians` where ``C`` is PSD already.
+        """
+        lam_C, vec_C = np.linalg.eigh(self.tangent_moduli(x))
+        C = np.einsum("nij,nj,nkj->nik", vec_C, np.maximum(lam_C, 0.0), vec_C).reshape(-1, 3, 3, 3, 3)
+        G = self.shape_gradients
+        H = np.einsum("naj,nijkl,nbl->naibk", G, C, G) * self.volume[:, None, None, None, None]
+        return H.reshape(len(G), 12, 12)
+
     def element_hessians(self, x):
         F, J, trace_C, cof = self._kinematics(x)
         _, _, c_swap, c_vol = kernels.bulk_neo_hookean(J, trace_C, self.lam, self.mu)
@@ -261,6 +298,10 @@ class SkinMembrane:
         H_nodes = _edges_to_nodes(_edges_to_nodes(H, 1), 3)              # Sᵀ H S on both edge axes
         return H_nodes.reshape(n, 9, 9)
 
+    def projected_element_hessians(self, x):
+        """:meth:`element_hessians` with each block's negative eigenvalues set to zero (:func:`project_psd`)."""
+        return project_psd(self.element_hessians(x))
+
 
 class Gravity:
     """Gravity potential ``−Σ_τ |τ|/4 ρ a_g·(f_1+f_2+f_3+f_4)`` (paper, section 4.1).
@@ -346,6 +387,10 @@ class Chassaignac:
         H = eye / root[:, None, None] - np.einsum("ni,nj->nij", u, u) / root[:, None, None] ** 3
         return self.weight[:, None, None] * H
 
+    def projected_element_hessians(self, x):
+        """:meth:`element_hessians`: these blocks are positive definite already."""
+        return self.element_hessians(x)
+
 
 def modulus_gradient(term, attribute, x):
     """``∂ gradient(x) / ∂ term.<attribute>`` (N per unit of the attribute), for a term linear in it.
@@ -386,17 +431,16 @@ class Composite:
     def hessian_blocks(self, x, project=False):
         """``[(connectivity, element_hessians)]`` of the non-linear terms.
 
-        With ``project=True`` each bulk and skin block is projected to the nearest
-        positive semi-definite matrix (eigenvalues clamped at 0); the Chassaignac
-        blocks are positive definite already.
+        With ``project=True`` each term's ``projected_element_hessians``: positive
+        semi-definite blocks (the bulk's tangent modulus and each skin block with
+        their negative eigenvalues set to zero; the Chassaignac blocks are positive
+        definite already).
         """
         blocks = []
         for term in self.terms:
             if term.connectivity is None:
                 continue
-            H = term.element_hessians(x)
-            if project and not isinstance(term, Chassaignac):
-                H = project_psd(H)
+            H = term.projected_element_hessians(x) if project else term.element_hessians(x)
             blocks.append((term.connectivity, H))
         return blocks
 

@@ -191,10 +191,7 @@ class EquilibriumProblem:
         return self.free(self.energy.gradient(self.full(z)))
 
     def hessian(self, z, project=False):
-        x = self.full(z)
-        if project:
-            return self.assembler.assemble(self.energy.hessian_blocks(x, project=True))
-        return self.assembler.assemble_terms(self.energy.nonlinear_terms, x)
+        return self.assembler.assemble_terms(self.energy.nonlinear_terms, self.full(z), project)
 
     @property
     def pattern(self):

@@ -221,7 +221,9 @@ def _check_branch(mm, target, sqrt_w, options, result, record, run):
     continues from the estimate, re-anchored on the cold equilibria, with warm
     starts again; at most :data:`BRANCH_RESTARTS` times, after which the drift
     that remains is recorded in ``result.branch_drift`` (and logged). The history
-    records each cold re-evaluation as an iteration at the same Λ.
+    records each cold re-evaluation as an iteration at the same Λ. When the
+    estimate's equilibria were solved cold already (its step went beyond the
+    warm-start radius), they are the cold ones: the check is skipped, with drift 0.
 
     Not continued: a run that did not converge (its iteration limit stands) or has
     no iterations left; a run whose weighted RMS drift
@@ -242,6 +244,9 @@ def _check_branch(mm, target, sqrt_w, options, result, record, run):
     for attempt in range(BRANCH_RESTARTS + 1):
         values = np.array(result.parameters[-1], float)
         warm = result.solutions if result.solutions is not None else mm.solve(values, remember=False)
+        if mm.solved_cold(warm):                        # the last step was solved cold: nothing to check
+            result.branch_drift = 0.0
+            return
         try:
             cold = mm.solve(values, remember=False, cold=True)
         except (SolveError, ParameterError) as err:

@@ -93,9 +93,20 @@ class MeasurementModel:
             for posture in self.postures:
                 solutions[posture.name] = self.model.solve(params, posture, starts[posture.name])
                 self.solves += 1
+        for name, solution in solutions.items():
+            solution.extra["cold_start"] = starts[name] is None
         if remember:
             self.remember(solutions, values)
         return solutions
+
+    @staticmethod
+    def solved_cold(solutions) -> bool:
+        """Whether every posture of ``solutions`` was solved cold (no warm start).
+
+        Such equilibria are those that define ``M(Λ)``: a cold solve is
+        reproducible bit for bit, so solving them cold again would repeat them.
+        """
+        return all(s.extra.get("cold_start", False) for s in solutions.values())
 
     def remember(self, solutions, values):
         """Use these equilibria (at ``Λ = values``) as the warm starts of the next solves."""

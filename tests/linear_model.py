@@ -33,6 +33,10 @@ class LinearModel:
     def remember(self, solutions, values):
         pass
 
+    @staticmethod
+    def solved_cold(solutions):
+        return solutions["cold"]
+
     def measure(self, solutions):
         M = self.M0 * np.exp(self.A @ np.log(solutions["values"] / TRUTH))
         return (M * (1 + self.drift if solutions["cold"] else 1.0)).reshape(3, 5)

@@ -271,3 +271,38 @@ def test_cost_rtol_stops_the_same_run_at_its_first_small_relative_decrease(metho
 def test_cost_rtol_outside_0_1_is_refused(value):
     with pytest.raises(ValueError, match="cost_rtol must be in"):
         IdentificationOptions(cost_rtol=value)
+
+
+def test_solutions_record_whether_they_were_solved_cold_and_cold_solves_repeat_bit_for_bit(problem):
+    """The premise of skipping the branch check: a cold solve at the same Λ repeats, after other solves."""
+    mm = MeasurementModel(problem[0].model, Parameters(), paper_postures())
+    far = mm.solve(TRUTH * 1.3)                                  # nothing remembered: cold
+    assert mm.solved_cold(far)
+    near = mm.solve(TRUTH * 1.31)                                # within warm_radius: warm
+    assert not mm.solved_cold(near)
+    again = mm.solve(TRUTH * 1.3, remember=False, cold=True)
+    assert mm.solved_cold(again)
+    for name, solution in far.items():
+        assert np.array_equal(again[name].position, solution.position)
+
+
+def test_branch_check_is_skipped_when_the_estimate_was_solved_cold(monkeypatch):
+    """Cold estimate equilibria: no cold re-solve and drift 0; warm ones are still checked."""
+    from breastcore import identify as identify_module
+    from breastcore.identify import IdentificationResult
+    mm = LinearModel(5e-2)
+    calls = []
+    solve = mm.solve
+    monkeypatch.setattr(mm, "solve", lambda values, remember=True, cold=False, jacobian=False:
+                        calls.append(cold) or solve(values, remember, cold, jacobian))
+    target = mm.measure(solve(TRUTH))
+    for cold, expected_calls in ((True, []), (False, [True])):
+        calls.clear()
+        result = IdentificationResult(True, "", TRUTH)
+        result.parameters.append(TRUTH.copy())
+        result.cost.append(1.0)
+        result.solutions = solve(TRUTH, cold=cold)
+        identify_module._check_branch(mm, target, np.ones_like(target), IdentificationOptions(), result,
+                                      lambda *a: None, lambda *a: None)
+        assert calls == expected_calls
+        assert (result.branch_drift == 0.0) == cold
