@@ -86,13 +86,13 @@ class BulkNeoHookean:
 
     Notes
     -----
-    Performance: :meth:`value`, :meth:`gradient` and :meth:`scatter_hessian` (what
-    a Newton iteration calls) are compiled loops over the tets
-    (:mod:`breastcore.compiled`), with ``det F`` and ``F⁻¹`` from the cofactor
-    matrix in closed form; the Hessian goes straight into the CSR data. The numpy
-    versions (:meth:`element_energies`, :meth:`element_gradients`,
-    :meth:`element_hessians`: blocks built by broadcasting) are the reference the
-    compiled loops are tested against, and give the blocks of the PSD projection.
+    Performance: :meth:`value`, :meth:`gradient`, :meth:`scatter_hessian` and
+    :meth:`scatter_projected_hessian` (what a Newton iteration calls) are compiled
+    loops over the tets (:mod:`breastcore.compiled`), with ``det F`` and ``F⁻¹`` from
+    the cofactor matrix in closed form; the Hessian goes straight into the CSR data.
+    The numpy versions (:meth:`element_energies`, :meth:`element_gradients`,
+    :meth:`element_hessians`, :meth:`projected_element_hessians`: blocks built by
+    broadcasting) are the reference the compiled loops are tested against.
     """
 
     def __init__(self, reference, tets, lam, mu):

@@ -3,8 +3,9 @@
 Robustness measures (issue #2, section 4):
 
 - a descent check on the Newton direction; when it fails, or the line search does,
-  the step is recomputed with each element block projected to positive
-  semi-definite (only when needed), then with a diagonal shift;
+  the step is recomputed with a positive semi-definite Hessian (only when needed:
+  the bulk's tangent modulus ∂²W/∂F² and each skin block with their negative
+  eigenvalues set to zero), then with a diagonal shift;
 - a backtracking line search in which an inverted tet or a degenerate skin triangle
   counts as infinite energy;
 - an Armijo test on the energy that falls back to a decrease of the gradient norm
