@@ -188,7 +188,7 @@ def scatter_bulk_hessian_projected(data, positions, x, tets, shape_gradients, vo
 
     Negative eigenvalues are set to zero and the element block is
     ``|τ| Σ_m max(α_m, 0) w_m w_mᵀ``, ``(w_m)_{ai} = (D_m ∇N_a)_i``. A tet whose
-    modes are all non-negative gets its exact block.
+    modes are all non-negative gets its exact block (to round-off).
     """
     F = np.empty((3, 3))
     U = np.empty((3, 3))
