@@ -61,7 +61,7 @@ def main(argv=None):
         problem = model.problem(params, posture)
         z = problem.free(x)
         exact_s, _, K = timed(lambda: problem.hessian(z), args.repeats)
-        projected_s, _, P = timed(lambda: problem.hessian(z, project=True), args.repeats)
+        projected_s, _, _ = timed(lambda: problem.hessian(z, project=True), args.repeats)
         eigh_s, _, _ = timed(lambda: eigh_per_block(problem, x), args.repeats)
         factor_s, _, _ = timed(lambda: Factorization(K, problem.pattern), args.repeats)
         indefinite = np.linalg.eigvalsh(problem.bulk.tangent_moduli(x)).min(axis=1) < 0

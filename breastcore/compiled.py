@@ -304,7 +304,8 @@ def _svd3(F, U, s, V, work):
 
     ``V`` and ``s²`` come from ``FᵀF``; ``u_0``, ``u_1`` from ``F v_i`` (Gram-Schmidt), and
     ``u_2 = u_0 × u_1``, so that a nearly flat tet (``s_2`` ≪ ``s_0``) keeps an
-    orthonormal ``U``. ``work`` is scratch space ``(4, 3, 3)``.
+    orthonormal ``U``. ``work`` is scratch space ``(4, 3, 3)``. ``F`` must have rank ≥ 2
+    (every admissible tet has ``det F > 0``: the solver only assembles there).
     """
     M, Q, Fv, lam2 = work[0], work[1], work[2], work[3, 0]
     for i in range(3):
@@ -336,19 +337,8 @@ def _svd3(F, U, s, V, work):
     for i in range(3):
         U[i, 1] = Fv[i, 1] - d * U[i, 0]
     n1 = np.sqrt(U[0, 1] ** 2 + U[1, 1] ** 2 + U[2, 1] ** 2)
-    if n1 > 0.0:
-        for i in range(3):
-            U[i, 1] /= n1
-    else:                                                            # rank ≤ 1: any unit vector ⟂ u_0
-        k = 0 if abs(U[0, 0]) < 0.9 else 1
-        e = np.zeros(3)
-        e[k] = 1.0
-        dd = U[0, 0] * e[0] + U[1, 0] * e[1] + U[2, 0] * e[2]
-        for i in range(3):
-            U[i, 1] = e[i] - dd * U[i, 0]
-        nn = np.sqrt(U[0, 1] ** 2 + U[1, 1] ** 2 + U[2, 1] ** 2)
-        for i in range(3):
-            U[i, 1] /= nn
+    for i in range(3):
+        U[i, 1] /= n1
     U[0, 2] = U[1, 0] * U[2, 1] - U[2, 0] * U[1, 1]
     U[1, 2] = U[2, 0] * U[0, 1] - U[0, 0] * U[2, 1]
     U[2, 2] = U[0, 0] * U[1, 1] - U[1, 0] * U[0, 1]

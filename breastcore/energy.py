@@ -428,25 +428,15 @@ class Composite:
     def gradient(self, x):
         return sum(term.gradient(x) for term in self.terms)
 
-    def hessian_blocks(self, x, project=False):
-        """``[(connectivity, element_hessians)]`` of the non-linear terms.
-
-        With ``project=True`` each term's ``projected_element_hessians``: positive
-        semi-definite blocks (the bulk's tangent modulus and each skin block with
-        their negative eigenvalues set to zero; the Chassaignac blocks are positive
-        definite already).
-        """
-        blocks = []
-        for term in self.terms:
-            if term.connectivity is None:
-                continue
-            H = term.projected_element_hessians(x) if project else term.element_hessians(x)
-            blocks.append((term.connectivity, H))
-        return blocks
-
     @property
     def nonlinear_terms(self):
-        """The terms with Hessian blocks, in :meth:`hessian_blocks` order."""
+        """The terms with Hessian blocks (``connectivity`` not ``None``), in order.
+
+        Each has ``element_hessians`` and ``projected_element_hessians`` (PSD: the
+        bulk's tangent modulus and each skin block with their negative eigenvalues set
+        to zero; the Chassaignac blocks are positive definite already), assembled by
+        :meth:`breastcore.assembly.FreeDofAssembler.assemble_terms`.
+        """
         return tuple(term for term in self.terms if term.connectivity is not None)
 
 

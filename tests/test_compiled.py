@@ -65,12 +65,16 @@ def _scatter_projected(bulk, x, clamp=True):
     return data.reshape(n, 12, 12)
 
 
+def _deformed_states(small_box, rng, lam):
+    """A bulk term with ``λ = lam`` and two random states, mildly and strongly deformed."""
+    bulk = BulkNeoHookean(small_box[0], small_box[1], lam, 150.0)
+    return [(bulk, deformed(small_box[0], rng, amplitude)) for amplitude in (0.15, 0.6)]
+
+
 @pytest.mark.parametrize("lam", [1000.0, 20.0, 2e5])
 def test_analytic_eigensystem_rebuilds_the_exact_bulk_hessian(small_box, rng, lam):
     """Unclamped, the twist, flip and scaling modes with their eigenvalues sum to ``|τ| Bᵀ C B`` exactly."""
-    bulk = BulkNeoHookean(small_box[0], small_box[1], lam, 150.0)
-    for amplitude in (0.15, 0.6):
-        x = deformed(small_box[0], rng, amplitude)
+    for bulk, x in _deformed_states(small_box, rng, lam):
         exact = bulk.element_hessians(x)
         np.testing.assert_allclose(_scatter_projected(bulk, x, clamp=False), exact, rtol=0,
                                    atol=1e-10 * np.abs(exact).max())
@@ -79,9 +83,7 @@ def test_analytic_eigensystem_rebuilds_the_exact_bulk_hessian(small_box, rng, la
 @pytest.mark.parametrize("lam", [1000.0, 20.0, 2e5])
 def test_analytic_projection_equals_the_numerical_eigh_projection_of_c(small_box, rng, lam):
     """Clamped: the analytic modes equal ``eigh`` of the 9×9 tangent modulus, clamped, and are PSD."""
-    bulk = BulkNeoHookean(small_box[0], small_box[1], lam, 150.0)
-    for amplitude in (0.15, 0.6):
-        x = deformed(small_box[0], rng, amplitude)
+    for bulk, x in _deformed_states(small_box, rng, lam):
         reference = bulk.projected_element_hessians(x)
         compiled_blocks = _scatter_projected(bulk, x)
         scale = np.abs(bulk.element_hessians(x)).max()
