@@ -12,7 +12,8 @@ per solve), and prints three tables:
 - Newton iterations per kind of forward solve: ``warm`` (the target problem solved
   directly from the last accepted equilibrium), ``cold`` (gravity ramp and δ
   continuation from the reference), ``warm fallback`` (a warm start that failed and
-  went on by δ continuation);
+  went on by δ continuation); and the modified-Newton steps per job (iterations whose
+  step came from the PSD-projected or shifted Hessian, ``mode=project|shift``);
 - how often the final continuation step (full gravity, target δ, full tolerance)
   failed before a solve succeeded or gave up, which is what
   ``SolverOptions.max_final_attempts`` caps; and, over the solves that gave up after
@@ -43,6 +44,7 @@ from breastcore.forward import SolverOptions  # noqa: E402
 STEP = re.compile(r"breastcore\.forward: (\S+): step t=(\S+) load=\S+ δ=\S+: (.*) in \d+ iterations")
 CONVERGED = re.compile(r"breastcore\.forward: (\S+): converged in (\d+) iterations \((\d+) continuation")
 GAVE_UP = re.compile(r"forward solve failed \((\S+): ")
+MODIFIED = re.compile(r"newton it=.* mode=(?:project|shift) ")
 
 
 def jobs(results: Path, since_hash: str | None):
@@ -112,7 +114,7 @@ def main(argv=None):
     for row in rows:
         by_level[row[1]].append(row)
     table, kinds = [], collections.defaultdict(lambda: [collections.Counter(), collections.Counter()])
-    outcomes, retry = collections.Counter(), collections.Counter()
+    outcomes, retry, modified = collections.Counter(), collections.Counter(), collections.Counter()
     for level, level_rows in by_level.items():
         times = [r[3] for r in level_rows]
         failed = [r[3] for r in level_rows if r[2] > 0]
@@ -126,13 +128,16 @@ def main(argv=None):
                 kinds[level][1].update(counts)
                 outcomes.update(outs)
                 retry.update(seconds)
+                modified[level] += len(MODIFIED.findall(log.read_text()))
     total = sum(r[3] for r in rows)
     table.append(["all", len(rows), f"{total:.0f}", "", "", "", sum(r[2] > 0 for r in rows),
                   f"{sum(r[3] for r in rows if r[2] > 0):.0f}"])
     print_table(["level", "jobs", "job time (s)", "median (s)", "mean (s)", "max (s)", "jobs with failed solves",
                  "their time (s)"], table, "Identification job time per mesh level")
-    print_table(["level"] + [f"{k} solves (Newton its)" for k in ("warm", "cold", "warm fallback")],
+    print_table(["level"] + [f"{k} solves (Newton its)" for k in ("warm", "cold", "warm fallback")]
+                + ["modified steps per job"],
                 [[level] + [f"{c[1][k]} ({c[0][k]})" for k in ("warm", "cold", "warm fallback")]
+                 + [f"{modified[level] / len(by_level[level]):.0f}"]
                  for level, c in kinds.items()], "Forward solves by kind")
     print_table(["outcome", "final-step failures before it", "solves"],
                 [[o, k, n] for (o, k), n in sorted(outcomes.items())], "Final continuation step")

@@ -1,0 +1,94 @@
+"""Two runs of the same identification jobs, level by level: job time and the work done.
+
+Usage::
+
+    python benchmarks/compare_runs.py --before <results of the earlier run> [--after results] [--paper-only]
+
+Jobs are matched by output name (``results/identify/<hash>.nc``: the hash is the job's
+spec, so the same guess, mesh and options). Per mesh level it prints the job time summed
+over the ``benchmark:`` files of the jobs present in both runs, and the median of the
+per-job ratios; then, over the datasets present in both, the LM iterations, forward
+solves and branch restarts, and how many estimates agree to ``--rtol``. With
+``--paper-only``, only the identify jobs of ``config/paper.yaml`` (545) are compared, not
+those of the evidence scenes that share the folder.
+"""
+
+from __future__ import annotations
+
+import argparse
+import statistics
+import sys
+from collections import defaultdict
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+
+from benchmarks._common import ROOT, header, print_table  # noqa: E402
+from breastcore.datasets import open_dataset  # noqa: E402
+
+
+def job_seconds(results: Path, key: str):
+    """Wall seconds of one identify job from its Snakemake ``benchmark:`` file, or None."""
+    path = results / "benchmarks" / "identify" / f"{key}.tsv"
+    if not path.exists():
+        return None
+    return float(path.read_text().splitlines()[1].split()[0])
+
+
+def compare(before: Path, after: Path, rtol: float, only=None):
+    """``{level: {counter: [values]}}`` over the identify jobs both runs have (and in ``only``, a set of names)."""
+    levels = defaultdict(lambda: defaultdict(list))
+    for new_path in sorted((after / "identify").glob("*.nc")):
+        old_path = before / "identify" / new_path.name
+        if not old_path.exists() or (only is not None and new_path.name not in only):
+            continue
+        with open_dataset(new_path) as new, open_dataset(old_path) as old:
+            row = levels[new.attrs["mesh_level"]]
+            for name in ("iterations", "forward_solves", "branch_restarts"):
+                row[f"{name} before"].append(int(old.attrs[name]))
+                row[f"{name} after"].append(int(new.attrs[name]))
+            row["same estimate"].append(bool(np.allclose(new["estimate"].values, old["estimate"].values,
+                                                         rtol=rtol, atol=0)))
+        times = job_seconds(before, new_path.stem), job_seconds(after, new_path.stem)
+        if None not in times:
+            row["seconds"].append(times)
+    return levels
+
+
+def main(argv=None):
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--before", required=True, help="results folder of the earlier run")
+    parser.add_argument("--after", default=str(ROOT / "results"), help="results folder of the later run")
+    parser.add_argument("--rtol", type=float, default=1e-6, help="estimates agreeing to this count as the same")
+    parser.add_argument("--paper-only", action="store_true", help="only the identify jobs of config/paper.yaml")
+    args = parser.parse_args(argv)
+    header("compare_runs")
+    only = None
+    if args.paper_only:
+        from benchmarks.identify_job_parts import paper_plan
+        only = {Path(path).name for path in paper_plan().jobs["identify"]}
+    levels = compare(Path(args.before), Path(args.after), args.rtol, only)
+    time_rows, work_rows, pairs = [], [], []
+    for level, row in sorted(levels.items()):
+        seconds = row["seconds"]
+        pairs += seconds
+        old, new = sum(t[0] for t in seconds), sum(t[1] for t in seconds)
+        time_rows.append([level, len(seconds), f"{old:.0f}", f"{new:.0f}", f"{new / old:.2f}",
+                          f"{statistics.median(b / a for a, b in seconds):.2f}"])
+        work_rows.append([level, len(row["same estimate"])]
+                         + [f"{sum(row[f'{n} before'])} → {sum(row[f'{n} after'])}"
+                            for n in ("iterations", "forward_solves", "branch_restarts")]
+                         + [sum(row["same estimate"])])
+    old, new = sum(t[0] for t in pairs), sum(t[1] for t in pairs)
+    time_rows.append(["all", len(pairs), f"{old:.0f}", f"{new:.0f}", f"{new / old:.2f}",
+                      f"{statistics.median(b / a for a, b in pairs):.2f}"])
+    print_table(["level", "jobs", "before s", "after s", "ratio", "median per-job ratio"], time_rows,
+                title="Identification job time, the same jobs in both runs")
+    print_table(["level", "datasets", "LM iterations", "forward solves", "branch restarts",
+                 f"same estimate (rtol {args.rtol:g})"], work_rows, title="Work done")
+
+
+if __name__ == "__main__":
+    main()
