@@ -1,0 +1,80 @@
+"""Set-up and linear-solve costs of a Newton iteration as the mesh grows: pattern, double and mixed precision.
+
+Usage::
+
+    python benchmarks/bench_factorization.py [--levels ultra-thin reference fine10k fine50k] [--repeats 3]
+
+For each mesh level, with ``BREASTCORE_PARDISO_THREADS`` as set (the fine50k target
+uses 2), medians of ``--repeats``:
+
+- ``pattern``: building :class:`~breastcore.assembly.FreeDofAssembler` (the free-dof CSR
+  pattern and the position of every element-block entry), part of every cold solve;
+- ``double``: one PARDISO numeric factorisation and solve in double precision;
+- ``mixed``: the single-precision factorisation and a solve refined in double to
+  ``‖b − Kx‖ ≤ 1e-10 ‖b‖`` (:class:`~breastcore.solver.Factorization` with ``mixed=True``),
+  with the refinement steps it took.
+
+The matrix is the exact Hessian at the gravity-free shape under standing gravity, the
+right-hand side its gradient. The solver uses mixed precision from
+``solver.MIXED_PRECISION_MIN_DOFS`` free dofs on.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+
+from benchmarks._common import header, print_table, timed  # noqa: E402
+from breastcore import solver  # noqa: E402
+from breastcore.assembly import FreeDofAssembler  # noqa: E402
+from breastcore.forward import ForwardModel  # noqa: E402
+from breastcore.mesh import mesh_level  # noqa: E402
+from breastcore.parameters import Parameters  # noqa: E402
+from breastcore.postures import parse_posture  # noqa: E402
+
+
+def level_row(level, repeats):
+    mesh = mesh_level(level)
+    model = ForwardModel(mesh)
+    params = Parameters()
+    conns = [mesh.tets, mesh.skin_triangles, np.unique(mesh.back_triangles)[:, None]]
+    free = model.free_mask(params.fold_angle)
+    t_pattern, _, _ = timed(lambda: FreeDofAssembler(conns, free), repeats)
+    problem = model.problem(params, parse_posture("standing"))
+    z = problem.free(problem.reference)
+    K, b = problem.hessian(z), problem.gradient(z)
+
+    def solve(mixed):
+        f = solver.Factorization(K, problem.pattern, mixed=mixed)
+        x = f.solve(b)
+        return f, np.linalg.norm(b - K @ x) / np.linalg.norm(b)
+
+    t_double, _, (_, res_double) = timed(lambda: solve(False), repeats)
+    t_mixed, _, (f_mixed, res_mixed) = timed(lambda: solve(True), repeats)
+    return [level, len(mesh.nodes), K.shape[0], t_pattern, t_double, t_mixed, t_double / t_mixed,
+            f_mixed.refinement_steps, "yes" if f_mixed.mixed else "no (fell back)", f"{res_double:.1e}",
+            f"{res_mixed:.1e}"]
+
+
+def main(argv=None):
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--levels", nargs="+", default=["ultra-thin", "reference", "fine10k", "fine50k"])
+    parser.add_argument("--repeats", type=int, default=3)
+    args = parser.parse_args(argv)
+    header("Pattern and factorisation costs", [sys.argv[0]] + (argv if argv is not None else sys.argv[1:]))
+    print(f"PARDISO threads: {os.environ.get('BREASTCORE_PARDISO_THREADS', '1')}; mixed precision from "
+          f"{solver.MIXED_PRECISION_MIN_DOFS:,} dofs in the solver\n", flush=True)
+    rows = [level_row(level, args.repeats) for level in args.levels]
+    print_table(["level", "nodes", "dofs", "pattern s", "double factor+solve s", "mixed factor+solve s",
+                 "double/mixed", "refinement steps", "stayed single", "residual double", "residual mixed"],
+                rows, title=f"medians of {args.repeats}")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,96 @@
+"""Mixed-precision factorisation: refinement to double accuracy, and its fallback."""
+
+import numpy as np
+import pytest
+import scipy.sparse as sp
+
+from breastcore import solver
+from breastcore.assembly import FreeDofAssembler
+from breastcore.energy import BulkNeoHookean
+from breastcore.solver import Factorization
+
+from test_energy import deformed
+
+pytestmark = pytest.mark.skipif(solver._pardiso is None, reason="mixed precision needs PARDISO")
+
+
+def _relative_residual(K, x, b):
+    return np.linalg.norm(b - K @ x) / np.linalg.norm(b)
+
+
+def test_mixed_precision_solve_is_refined_to_double_accuracy(small_box, rng):
+    nodes, tets, top, bottom = small_box
+    bulk = BulkNeoHookean(nodes, tets, 1000.0, 150.0)
+    free = np.ones(nodes.shape, bool)
+    free[bottom.ravel()] = False
+    assembler = FreeDofAssembler([tets], free)
+    K = assembler.assemble_terms([bulk], deformed(nodes, rng))
+    b = rng.standard_normal(K.shape[0])
+    double = Factorization(K, assembler.pattern, mixed=False)
+    mixed = Factorization(K, assembler.pattern, mixed=True)
+    x = mixed.solve(b)
+    assert mixed.mixed and mixed.refinement_steps >= 1            # the single factor alone is not enough
+    assert _relative_residual(K, x, b) <= solver.REFINEMENT_RTOL
+    np.testing.assert_allclose(x, double.solve(b), rtol=0, atol=1e-10 * np.abs(x).max())
+    assert mixed.negative_pivots == double.negative_pivots
+    B = rng.standard_normal((K.shape[0], 3))                       # several right-hand sides at once
+    assert _relative_residual(K, mixed.solve(B), B) <= np.sqrt(3) * solver.REFINEMENT_RTOL
+
+
+def test_ill_conditioned_matrix_falls_back_to_double_precision(rng):
+    n = 400                                                        # Neumann Laplacian + 1e-10 I: κ ≈ 4e10
+    K = sp.diags([-np.ones(n - 1), 2.0 * np.ones(n), -np.ones(n - 1)], [-1, 0, 1], format="lil")
+    K[0, 0] = K[n - 1, n - 1] = 1.0
+    K = (K + 1e-10 * sp.eye(n)).tocsr()
+    K.sort_indices()
+    b = rng.standard_normal(n)
+    f = Factorization(K, mixed=True)
+    x = f.solve(b)
+    assert not f.mixed                                             # refinement stalled: refactorised
+    assert _relative_residual(K, x, b) <= 1e-6
+    x_double = Factorization(K, mixed=False).solve(b)
+    np.testing.assert_allclose(x, x_double, rtol=1e-12, atol=0)
+
+
+def _box_hessian(small_box, rng, scale=0.0):
+    """Bulk Hessian of the box with its bottom fixed, at its nodes moved by ``scale`` × N(0, 1)."""
+    nodes, tets, top, bottom = small_box
+    bulk = BulkNeoHookean(nodes, tets, 1000.0, 150.0)
+    free = np.ones(nodes.shape, bool)
+    free[bottom.ravel()] = False
+    assembler = FreeDofAssembler([tets], free)
+    return assembler, assembler.assemble_terms([bulk], nodes + scale * rng.standard_normal(nodes.shape))
+
+
+def test_a_factor_solves_a_nearby_matrix_by_refinement_but_not_a_distant_one(small_box, rng):
+    assembler, K = _box_hessian(small_box, rng)
+    factor = Factorization(K, assembler.pattern, mixed=True)
+    b = rng.standard_normal(K.shape[0])
+    near = _box_hessian(small_box, rng, scale=1e-4)[1]            # a later Newton iteration's Hessian
+    x = factor.solve_other(near, b, rtol=1e-10, max_steps=30)
+    assert x is not None and _relative_residual(near, x, b) <= 1e-10
+    assert factor.solve_other(-near, b) is None                    # M⁻¹K ≈ −I: refinement diverges
+    assert factor.solve_other(near, b, rtol=1e-10, max_steps=1) is None     # too few steps
+    other = Factorization(near, assembler.pattern, mixed=True)     # takes the shared single-precision handle
+    assert factor.solve_other(near, b, rtol=1e-10, max_steps=30) is None
+    assert other.solve_other(near, b, rtol=1e-10, max_steps=30) is not None
+    with pytest.raises(ValueError, match="mixed-precision"):
+        Factorization(K, assembler.pattern, mixed=False).solve_other(near, b)
+
+
+def test_newton_in_mixed_precision_reuses_factors_and_reaches_the_same_equilibrium(monkeypatch):
+    from breastcore.forward import ForwardModel
+    from breastcore.mesh import mesh_level
+    from breastcore.parameters import Parameters
+    from breastcore.postures import parse_posture
+    model, params, fours = ForwardModel(mesh_level("coarse")), Parameters(), parse_posture("fours")
+    problem = model.problem(params, fours, 1.0, 1e-4)
+    tolerance = model.tolerance(params, fours)
+    z0 = problem.free(problem.reference)
+    double = solver.newton(problem, z0, tolerance)
+    monkeypatch.setattr(solver, "MIXED_PRECISION_MIN_DOFS", 0)
+    mixed = solver.newton(problem, z0, tolerance)
+    assert double.success and mixed.success and mixed.negative_pivots == 0
+    assert double.reused_factors == 0 and mixed.reused_factors >= 1
+    assert np.linalg.norm(problem.gradient(mixed.x)) <= tolerance           # an equilibrium, recomputed
+    np.testing.assert_allclose(mixed.x, double.x, rtol=0, atol=1e-6 * params.R)
