@@ -227,8 +227,9 @@ class SymmetricPattern:
 
 #: Matrices with at least this many rows are factorised in single precision and solved
 #: by mixed-precision iterative refinement (see :class:`Factorization`). On fine50k
-#: (145k dofs) the single factor takes 4.4 s against 8.7 s; on the meshes of the paper
-#: (≤ 9k dofs) the factorisation is not bound by its dense kernels and gains little.
+#: (145k dofs) factorisation and solve take 4.8 s against 10.6 s (2 threads). Smaller
+#: meshes gain 1.4-2.2× too (``benchmarks/bench_factorization.py``), but stay in double
+#: precision: their solves, and the paper scene's results, stay as they were.
 MIXED_PRECISION_MIN_DOFS = 100_000
 #: Refinement stops when ‖b − K x‖ ≤ this × ‖b‖. A double-precision factor reaches
 #: ~1e-14; refinement on the crushed standing states of fine50k levels off at 2-7e-12.
