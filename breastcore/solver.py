@@ -63,9 +63,6 @@ class NewtonResult:
         Negative eigenvalues of the exact Hessian factorised at the last Newton
         iteration (PARDISO's inertia; ``None`` if unknown). Non-zero at a
         converged solve means the equilibrium is a saddle, not a minimum.
-    reused_factors : int
-        Iterations whose exact Hessian was solved with the previous iteration's
-        factor instead of a new factorisation (mixed precision only).
     """
 
     x: np.ndarray
@@ -78,7 +75,6 @@ class NewtonResult:
     history: tuple
     message: str
     negative_pivots: int | None = None
-    reused_factors: int = 0
 
 
 #: Threads PARDISO may use (environment variable ``BREASTCORE_PARDISO_THREADS``, default 1).
@@ -234,13 +230,8 @@ MIXED_PRECISION_MIN_DOFS = 100_000
 #: Refinement stops when ‖b − K x‖ ≤ this × ‖b‖. A double-precision factor reaches
 #: ~1e-14; refinement on the crushed standing states of fine50k levels off at 2-7e-12.
 REFINEMENT_RTOL = 1e-10
+#: Refinement steps of one solve before the matrix is factorised in double instead.
 REFINEMENT_MAX_STEPS = 10
-#: Refinement steps a Newton iteration may spend solving its Hessian with the previous
-#: iteration's factor (see :func:`newton`) before it factorises the Hessian itself.
-REUSE_MAX_STEPS = 6
-#: Relative residual to which such a reused factor must solve the Newton system
-#: (an inexact Newton step; its forcing term, Eisenstat and Walker 1996).
-REUSE_RTOL = 1e-4
 
 
 class Factorization:
@@ -318,7 +309,7 @@ class Factorization:
             return self._lu.solve(b)
         if not self.mixed:
             return self._solve_factor(b)
-        x = self._refine(self._K, b, REFINEMENT_MAX_STEPS)
+        x = self._refine(self._K, b, REFINEMENT_MAX_STEPS, REFINEMENT_RTOL)
         if x is not None:
             return x
         log.debug("mixed-precision refinement stalled after %d steps: double precision", self.refinement_steps)
@@ -327,22 +318,7 @@ class Factorization:
         self._factorize(upper)
         return self._solve_factor(b)
 
-    def solve_other(self, K, b, rtol=None, max_steps=REUSE_MAX_STEPS):
-        """Solve ``K x = b`` for another matrix of the same pattern, this factor as the preconditioner.
-
-        Iterative refinement as in :meth:`solve`, the residual taken with ``K``;
-        ``None`` if it does not reach :data:`REFINEMENT_RTOL` within ``max_steps``
-        steps while reducing the residual at least twofold per step, or if the
-        shared PARDISO handle holds another factor by now. Only for a
-        mixed-precision factor (whose solves are cheap against a factorisation).
-        """
-        if _pardiso is None or not self.mixed:
-            raise ValueError("solve_other needs a mixed-precision PARDISO factorisation")
-        if self._pattern.handle(single=True).owner != self._token:   # its factor was replaced: not cheap
-            return None
-        return self._refine(K, np.asarray(b, dtype=float), max_steps, REFINEMENT_RTOL if rtol is None else rtol)
-
-    def _refine(self, K, b, max_steps, rtol=None):
+    def _refine(self, K, b, max_steps, rtol):
         scale = np.linalg.norm(b, axis=0)
         scale = np.where(scale > 0, scale, 1.0)
         x = self._solve_factor(b)
@@ -350,7 +326,7 @@ class Factorization:
         for _ in range(max_steps + 1):
             r = b - K @ x
             ratio = float(np.max(np.linalg.norm(r, axis=0) / scale))
-            if ratio <= (REFINEMENT_RTOL if rtol is None else rtol):
+            if ratio <= rtol:
                 return x
             if not ratio < 0.5 * best:                              # not converging: κ ε_single ≳ 1
                 return None
@@ -492,8 +468,6 @@ def newton(problem, z0, tolerance, max_iterations=50, avoid_saddles=False):
     message = "iteration limit"
     pattern = getattr(problem, "pattern", None)                      # reuse the symbolic factorisation
     inertia = None
-    previous = None                                                  # a factor the next iteration may reuse
-    reused = 0
     for it in range(max_iterations + 1):
         g = problem.gradient(z)
         g_norm = _norm(g)
@@ -503,7 +477,7 @@ def newton(problem, z0, tolerance, max_iterations=50, avoid_saddles=False):
             break
         if g_norm <= tolerance:
             return NewtonResult(z, True, it, g_norm, tolerance, energy, projected, tuple(history), "converged",
-                                inertia, reused)
+                                inertia)
         if it == max_iterations:
             break
         if _stagnated(history, energies, abs(energy) + problem.energy_scale):
@@ -514,17 +488,9 @@ def newton(problem, z0, tolerance, max_iterations=50, avoid_saddles=False):
             K = problem.hessian(z, project=(mode != "exact"))
             if mode == "shift":
                 K = shift_diagonal(K, 1e-6 * abs(K.diagonal()).max())
-            d = None
-            if mode == "exact" and previous is not None:                # cheaper than a factorisation
-                d = previous.solve_other(K, -g, REUSE_RTOL)
-            label = mode
-            if d is not None:
-                factor, label = previous, "exact-reused"
-            else:
-                factor, d = _factor_solve(K, g, pattern)
+            factor, d = _factor_solve(K, g, pattern)
             if mode == "exact":
                 inertia = None if factor is None else factor.negative_pivots
-                previous = factor if factor is not None and factor.mixed and inertia == 0 else None
                 if avoid_saddles and inertia:
                     continue
             if d is None or _dot(g, d) >= -1e-12 * g_norm * _norm(d):
@@ -532,14 +498,13 @@ def newton(problem, z0, tolerance, max_iterations=50, avoid_saddles=False):
             accepted = _line_search(problem, z, d, energy, g, g_norm, expand=(mode != "exact"))
             if accepted is not None:
                 projected += mode != "exact"
-                reused += label == "exact-reused"
                 break
         if accepted is None:
             message = "no descent step found (line search failed)"
             break
         step, z, energy = accepted
         energies.append(energy)
-        log.debug("newton it=%d |g|=%.3e step=%.3g E=%.9e mode=%s neg=%s", it, g_norm, step, energy, label,
+        log.debug("newton it=%d |g|=%.3e step=%.3g E=%.9e mode=%s neg=%s", it, g_norm, step, energy, mode,
                   factor.negative_pivots)
     return NewtonResult(z, False, len(history) - 1, history[-1], tolerance, energy, projected, tuple(history), message,
-                        inertia, reused)
+                        inertia)
