@@ -190,8 +190,8 @@ def main(argv=None):
     args = parser.parse_args(argv)
     header("Forward model benchmarks", [sys.argv[0]] + (argv if argv is not None else sys.argv[1:]))
     if args.only_fine50k:
-        print_table(["target", "goal", "measured", "verdict"], fine50k_rows(args.fine_cap, args.fine_postures, args.fine_repeats,
-                                                                   args.fine_threads), title="Targets")
+        rows = fine50k_rows(args.fine_cap, args.fine_postures, args.fine_repeats, args.fine_threads)
+        print_table(["target", "goal", "measured", "verdict"], rows, title="Targets")
         return
     repeats = 1 if args.quick and args.repeats == 3 else args.repeats
     levels = args.levels or (QUICK_LEVELS if args.quick else LEVELS)

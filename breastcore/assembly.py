@@ -65,12 +65,12 @@ class FreeDofAssembler:
         self.positions = []
         for conn, keys in zip(conns, pair_keys):
             n, k = conn.shape
-            offset = (before[np.searchsorted(pairs, keys)] - segment[conn][:, :, None])[:, :, None, :, None]
-            offset = offset.astype(np.int32)
-            rows = row_start[conn].astype(np.int32)[:, :, :, None, None]      # (n, k, 3, 1, 1)
-            cols = np.where(free[conn], rank[conn], -1).astype(np.int32)[:, None, None, :, :]  # (n, 1, 1, k, 3)
-            pos = np.where((rows >= 0) & (cols >= 0), rows + offset + cols, -1)
-            self.positions.append(pos.reshape(n, 3 * k, 3 * k).astype(np.int32))
+            offset = before[np.searchsorted(pairs, keys)] - segment[conn][:, :, None]   # columns before node j
+            offset = offset.astype(np.int32)[:, :, None, :, None]                         # (n, k, 1, k, 1)
+            rows = row_start[conn].astype(np.int32)[:, :, :, None, None]                  # (n, k, 3, 1, 1)
+            cols = np.where(free[conn], rank[conn], -1).astype(np.int32)[:, None, None]   # (n, 1, 1, k, 3)
+            pos = np.where((rows >= 0) & (cols >= 0), rows + offset + cols, np.int32(-1))
+            self.positions.append(pos.reshape(n, 3 * k, 3 * k))
         self._pattern = None
 
     @property

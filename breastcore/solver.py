@@ -228,7 +228,7 @@ class SymmetricPattern:
 #: precision: their solves, and the paper scene's results, stay as they were.
 MIXED_PRECISION_MIN_DOFS = 100_000
 #: Refinement stops when ‖b − K x‖ ≤ this × ‖b‖. A double-precision factor reaches
-#: ~1e-14; refinement on the crushed standing states of fine50k levels off at 2-7e-12.
+#: ~1e-14; on the crushed standing states of fine50k refinement mostly levels off at 1.5-7e-12.
 REFINEMENT_RTOL = 1e-10
 #: Refinement steps of one solve before the matrix is factorised in double instead.
 REFINEMENT_MAX_STEPS = 10
