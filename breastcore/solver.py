@@ -224,7 +224,7 @@ class SymmetricPattern:
 #: Matrices with at least this many rows are factorised in single precision and solved
 #: by mixed-precision iterative refinement (see :class:`Factorization`). On fine50k
 #: (145k dofs) factorisation and solve take 4.8 s against 10.6 s (2 threads). Smaller
-#: meshes gain 1.4-2.2× too (``benchmarks/bench_factorization.py``), but stay in double
+#: meshes gain 1.2-2.2× too (``benchmarks/bench_factorization.py``), but stay in double
 #: precision: their solves, and the paper scene's results, stay as they were.
 MIXED_PRECISION_MIN_DOFS = 100_000
 #: Refinement stops when ‖b − K x‖ ≤ this × ‖b‖. A double-precision factor reaches
@@ -301,7 +301,7 @@ class Factorization:
         handle = self._pattern.handle(single=self.mixed)
         if handle.owner != self._token:                              # another factor took the handle
             handle.factorize(self._data, self._token)
-        return handle.solve(self._data, b).astype(float)
+        return handle.solve(self._data, b).astype(float, copy=False)
 
     def solve(self, b):
         b = np.asarray(b, dtype=float)
@@ -309,7 +309,7 @@ class Factorization:
             return self._lu.solve(b)
         if not self.mixed:
             return self._solve_factor(b)
-        x = self._refine(self._K, b, REFINEMENT_MAX_STEPS, REFINEMENT_RTOL)
+        x = self._refine(b)
         if x is not None:
             return x
         log.debug("mixed-precision refinement stalled after %d steps: double precision", self.refinement_steps)
@@ -318,15 +318,16 @@ class Factorization:
         self._factorize(upper)
         return self._solve_factor(b)
 
-    def _refine(self, K, b, max_steps, rtol):
+    def _refine(self, b):
+        """Mixed-precision iterative refinement of ``K x = b``; ``None`` if it stalls."""
         scale = np.linalg.norm(b, axis=0)
         scale = np.where(scale > 0, scale, 1.0)
         x = self._solve_factor(b)
         best = np.inf
-        for _ in range(max_steps + 1):
-            r = b - K @ x
+        for _ in range(REFINEMENT_MAX_STEPS + 1):
+            r = b - self._K @ x
             ratio = float(np.max(np.linalg.norm(r, axis=0) / scale))
-            if ratio <= rtol:
+            if ratio <= REFINEMENT_RTOL:
                 return x
             if not ratio < 0.5 * best:                              # not converging: κ ε_single ≳ 1
                 return None
