@@ -3,12 +3,13 @@ import os
 
 from snakemake.utils import min_version
 
-from breastcore.workflow_config import validate_config
+from breastcore.workflow_config import check_config_files, validate_config
 
 min_version("8.0")
 
 configfile: "config.yaml"
 
+check_config_files(workflow.configfiles)
 config.update(validate_config(config, os.path.join(workflow.basedir, "workflow/schemas/config.schema.yaml")))
 
 include: "workflow/rules/common.smk"

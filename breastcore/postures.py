@@ -36,14 +36,22 @@ class Posture:
 
 
 def parse_posture(text: str) -> Posture:
-    """``"NAME"`` (one of the paper's) or ``"NAME=ANGLE"`` (degrees)."""
+    """``"NAME"`` (one of the paper's) or ``"NAME=ANGLE"`` (degrees).
+
+    A paper posture's name keeps its own angle: ``standing=45`` is refused, since data
+    labelled standing would otherwise be solved bent forward.
+    """
     if "=" in text:
         name, _, angle = text.partition("=")
+        name = name.strip()
         try:
             value = float(angle)
         except ValueError:
             raise PostureError(f"posture {text!r}: angle {angle!r} is not a number") from None
-        return Posture(name.strip(), value)
+        if name in PAPER_POSTURES and value != PAPER_POSTURES[name]:
+            raise PostureError(f"posture {text!r}: {name} is the paper's posture at {PAPER_POSTURES[name]:g} "
+                               f"degrees; give another name for {value:g} degrees")
+        return Posture(name, value)
     if text not in PAPER_POSTURES:
         raise PostureError(f"unknown posture {text!r}; known: {', '.join(PAPER_POSTURES)} (or NAME=ANGLE)")
     return Posture(text, PAPER_POSTURES[text])

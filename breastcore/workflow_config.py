@@ -48,6 +48,31 @@ def fill_defaults(instance, schema, root):
     return instance
 
 
+def _repeated_key(node, where=""):
+    """Raise ConfigError at the first key given twice in one mapping of a YAML node tree."""
+    if isinstance(node, yaml.MappingNode):
+        lines = {}
+        for key_node, value_node in node.value:
+            path = f"{where}.{key_node.value}" if where else str(key_node.value)
+            line = key_node.start_mark.line + 1
+            if key_node.value in lines:
+                raise ConfigError(f"config key {path}: given twice, at lines {lines[key_node.value]} and {line} "
+                                  f"of {key_node.start_mark.name}; YAML would silently keep the last")
+            lines[key_node.value] = line
+            _repeated_key(value_node, path)
+    elif isinstance(node, yaml.SequenceNode):
+        for i, item in enumerate(node.value):
+            _repeated_key(item, f"{where}[{i}]")
+
+
+def check_config_files(paths) -> None:
+    """Refuse a config file with a repeated key (e.g. two scenes of one name): Snakemake's
+    loader, like YAML, silently keeps the last. Raises ConfigError naming the key and lines."""
+    for path in paths:
+        with open(path) as stream:
+            _repeated_key(yaml.compose(stream, Loader=yaml.SafeLoader))
+
+
 def _check(instance, schema, root, where):
     validator = jsonschema.Draft7Validator({**schema, "definitions": root["definitions"]})
     error = next(iter(sorted(validator.iter_errors(instance), key=lambda e: list(e.absolute_path))), None)
@@ -56,7 +81,17 @@ def _check(instance, schema, root, where):
         message = error.message
         if error.validator == "additionalProperties":
             message = "unknown key: " + message.split("(")[-1].rstrip(")").replace(" was unexpected", "")
+        if error.validator == "type" and isinstance(error.instance, str) and _is_number(error.instance):
+            message += " (YAML reads an exponent without a decimal point, such as 1e3, as text: write 1.0e3)"
         raise ConfigError(f"config key {path or '<top>'}: {message}")
+
+
+def _is_number(text):
+    try:
+        float(text)
+    except ValueError:
+        return False
+    return True
 
 
 def _finite(value, where):
@@ -103,6 +138,11 @@ def validate_config(config, schema_path) -> dict:
     _finite(config, "")
     _check(config, root, root, "")
     fill_defaults(config, root, root)
+    if not config["results"].strip("/"):
+        raise ConfigError(f"config key results: {config['results']!r} is empty or the file-system root; "
+                          f"give a folder such as 'results'")
+    if not config["scenes"]:
+        raise ConfigError("config key scenes: no scene, so nothing to compute; see config.yaml for examples")
     unknown = [n for n in config["run_scenes"] if n not in config["scenes"]]
     if unknown:
         raise ConfigError(f"config key run_scenes: unknown scene {unknown[0]!r}; scenes: {', '.join(config['scenes'])}")
@@ -122,8 +162,10 @@ def validate_config(config, schema_path) -> dict:
             names = [m["name"] for m in scene["methods"]]
             if len(set(names)) != len(names):
                 raise ConfigError(f"config key {where}.methods: repeated method name in {names}")
-            _levels([scene["truth_mesh"], *scene["meshes"], *(lv for m in scene["methods"] for lv in m.get("meshes", []))],
-                    f"{where}.meshes")
+            _levels([scene["truth_mesh"]], f"{where}.truth_mesh")
+            _levels(scene["meshes"], f"{where}.meshes")
+            for i, method in enumerate(scene["methods"]):
+                _levels(method.get("meshes", []), f"{where}.methods[{i}].meshes")
             _postures(scene["postures"], f"{where}.postures")
             _cap(scene["truth"], f"{where}.truth")
             _fixed_iterations(scene, [m.get("method", "lm") for m in scene["methods"]], where)

@@ -92,15 +92,69 @@ def test_non_finite_number():
     assert "scenes.example_patient.postures.bent45.area" in msg
 
 
-def test_snakemake_stops_before_any_job_on_a_bad_config(tmp_path):
+def _negative_volume():
     config = copy.deepcopy(DEFAULT)
     config["scenes"]["example_patient"]["postures"]["standing"]["volume"] = -5
-    (tmp_path / "config.yaml").write_text(yaml.safe_dump(config))
+    return yaml.safe_dump(config)
+
+
+def _repeated_scene():
+    return (ROOT / "config.yaml").read_text() + "  forward_demo:\n    kind: forward\n    mesh: coarse\n"
+
+
+@pytest.mark.parametrize("text, key", [(_negative_volume, "scenes.example_patient.postures.standing.volume"),
+                                       (_repeated_scene, "scenes.forward_demo: given twice")])
+def test_snakemake_stops_before_any_job_on_a_bad_config(tmp_path, text, key):
+    (tmp_path / "config.yaml").write_text(text())
     out = subprocess.run([str(Path(sys.executable).parent / "snakemake"), "-n", "-s", str(ROOT / "Snakefile"),
                           "-d", str(tmp_path)], capture_output=True, text=True)
     assert out.returncode != 0
-    assert "scenes.example_patient.postures.standing.volume" in out.stdout + out.stderr
+    assert key in out.stdout + out.stderr
     assert not (tmp_path / "results").exists()
+
+
+def test_repeated_key_is_refused_with_both_lines(tmp_path):
+    from breastcore.workflow_config import check_config_files
+    path = tmp_path / "c.yaml"
+    path.write_text("scenes:\n  a:\n    kind: forward\n    postures: [standing]\n  b: {kind: forward}\n"
+                    "  a:\n    kind: patient\n")
+    with pytest.raises(ConfigError, match=r"scenes\.a: given twice, at lines 2 and 6"):
+        check_config_files([path])
+    path.write_text("scenes:\n  a: {kind: forward, postures: [standing, fours]}\n  b: {kind: forward}\n")
+    check_config_files([path])                                   # repeated values are fine, keys are not
+
+
+def test_results_folder_must_be_a_folder():
+    for bad in ("", "/", "//"):
+        msg = _bad(lambda c: c.update(results=bad))
+        assert msg.startswith("config key results:"), msg
+
+
+def test_empty_scene_set_is_refused():
+    assert "config key scenes: no scene" in _bad(lambda c: c.update(scenes={}))
+
+
+def test_unknown_truth_mesh_names_its_own_key():
+    msg = _bad(lambda c: c["scenes"]["paper_synthetic"].update(truth_mesh="huge"))
+    assert msg.startswith("config key scenes.paper_synthetic.truth_mesh: unknown mesh level 'huge'"), msg
+    msg = _bad(lambda c: c["scenes"]["error_vs_runtime"]["methods"][2].update(meshes=["huge"]))
+    assert msg.startswith("config key scenes.error_vs_runtime.methods[2].meshes:"), msg
+
+
+def test_paper_posture_name_keeps_its_angle():
+    msg = _bad(lambda c: c["scenes"]["example_patient"]["postures"]["standing"].update(angle=45))
+    assert "scenes.example_patient.postures.standing" in msg and "0 degrees" in msg
+    msg = _bad(lambda c: c["scenes"]["forward_demo"].update(postures=["fours=60"]))
+    assert "scenes.forward_demo.postures" in msg and "fours" in msg
+    config = copy.deepcopy(DEFAULT)
+    config["scenes"]["forward_demo"]["postures"] = ["fours=90", "lean=60"]
+    config["scenes"]["example_patient"]["postures"]["standing"]["angle"] = 0
+    validate_config(config, SCHEMA)                                # the same angle, or a new name: fine
+
+
+def test_exponent_without_decimal_point_gets_a_hint():
+    msg = _bad(lambda c: c["scenes"]["forward_demo"]["parameters"].update(lambda_breast="1e3"))
+    assert "scenes.forward_demo.parameters.lambda_breast" in msg and "write 1.0e3" in msg
 
 
 def test_max_starts_keeps_the_first_guesses_of_the_full_draw():
