@@ -1,0 +1,52 @@
+"""write_netcdf: atomic (a temporary name, then a rename) and refusing unlabelled variables."""
+
+import numpy as np
+import pytest
+import xarray as xr
+
+from breastcore.datasets import write_netcdf
+
+
+def _dataset(value):
+    return xr.Dataset({"volume": ("posture", np.array([value, 2.0 * value]),
+                                  {"units": "m3", "long_name": "breast volume"})})
+
+
+def test_write_round_trips_and_leaves_no_temporary(tmp_path):
+    target = tmp_path / "sub" / "a.nc"
+    write_netcdf(_dataset(1e-4), target)
+    with xr.open_dataset(target) as ds:
+        np.testing.assert_array_equal(ds["volume"].values, [1e-4, 2e-4])
+    assert sorted(p.name for p in target.parent.iterdir()) == ["a.nc"]
+
+
+def test_a_failed_write_leaves_the_old_file_whole_and_no_temporary(tmp_path, monkeypatch):
+    target = tmp_path / "a.nc"
+    write_netcdf(_dataset(1e-4), target)
+    seen = {}
+
+    def half_write(self, path, *args, **kwargs):
+        seen["path"] = path
+        with open(path, "wb") as stream:        # the bytes a crash would leave behind
+            stream.write(b"CDF\x01 half")
+        with xr.open_dataset(target) as old:    # a reader meanwhile still sees the whole old file
+            seen["old"] = old["volume"].values.copy()
+        raise OSError("disk full")
+
+    monkeypatch.setattr(xr.Dataset, "to_netcdf", half_write)
+    with pytest.raises(OSError, match="disk full"):
+        write_netcdf(_dataset(5e-4), target)
+    assert seen["path"] != str(target)
+    np.testing.assert_array_equal(seen["old"], [1e-4, 2e-4])
+    monkeypatch.undo()
+    with xr.open_dataset(target) as ds:
+        np.testing.assert_array_equal(ds["volume"].values, [1e-4, 2e-4])
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["a.nc"]
+
+
+def test_a_variable_without_units_is_refused_before_writing(tmp_path):
+    ds = _dataset(1e-4)
+    ds["area"] = ("posture", np.ones(2), {"long_name": "skin area"})
+    with pytest.raises(ValueError, match=r"\['area'\]"):
+        write_netcdf(ds, tmp_path / "a.nc")
+    assert list(tmp_path.iterdir()) == []
