@@ -1,7 +1,5 @@
 # The job plan (breastcore.workflow_plan) and helpers shared by the rules.
-import hashlib
 import os
-import json
 
 from breastcore import source_hash
 from breastcore.mesh import LEVEL_NODE_COUNTS
@@ -14,7 +12,6 @@ RESULTS = PLAN.results
 # imports; the report rules hash the whole package.
 COMPUTE_CODE = source_hash("pipeline", "logs", "workflow_plan")
 CODE = source_hash()
-CONFIG_HASH = hashlib.sha1(json.dumps(config, sort_keys=True).encode()).hexdigest()[:12]
 
 wildcard_constraints:
     name="[^/]+",
