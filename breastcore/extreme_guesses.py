@@ -80,7 +80,7 @@ def extreme_guess_dataset(labels, starts, outcomes, records, messages, level, co
     coords = {"parameter": _var(("parameter",), np.array(IDENTIFIED), "1", "identified parameter")}
     counts = {o: int(sum(x == o for x in outcomes)) for o in OUTCOMES}
     ds = xr.Dataset(data, coords=coords)
-    ds.attrs = provenance("stability", Parameters(), config_hash, mesh_level=level, guess_outcome_counts=counts,
+    ds.attrs = provenance("extreme", Parameters(), config_hash, mesh_level=level, guess_outcome_counts=counts,
                           title=f"identification from extreme guesses on the {level} mesh")
     return ds
 

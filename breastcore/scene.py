@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import json
+
 import numpy as np
 import pandas as pd
 import xarray as xr
@@ -110,9 +112,9 @@ def solution_summary(path, name, kind, config_hash=None) -> xr.Dataset:
     disp = ds["position"][:, nipple] - ds["reference_position"][nipple]
     data = {"nipple_displacement": _var(("posture", "xyz"), disp.values, "m", "nipple displacement under gravity")}
     for key in DIAGNOSTICS:
-        for name in (key, "solve_" + key):
-            if name in ds and "posture" in ds[name].dims:
-                data[key] = ds[name].variable
+        for variable in (key, "solve_" + key):
+            if variable in ds and "posture" in ds[variable].dims:
+                data[key] = ds[variable].variable
     if kind == "patient":
         for key in ("estimate", "interval_low", "interval_high", "cost"):
             data[key] = ds[key].variable
@@ -122,6 +124,14 @@ def solution_summary(path, name, kind, config_hash=None) -> xr.Dataset:
     out.attrs = provenance("scene", None, config_hash, scene=name, scene_kind=kind, source=str(path),
                            title=f"{kind} scene {name}")
     return out
+
+
+def record_datasets(summary: xr.Dataset, datasets) -> xr.Dataset:
+    """Record in ``summary.attrs["datasets"]`` (JSON) the stage datasets the scene is computed
+    from, as paths relative to the results folder, so that ``breastcore list`` can name the
+    scenes each shared mesh, solve or identification file serves."""
+    summary.attrs["datasets"] = json.dumps(list(datasets))
+    return summary
 
 
 def parameter_table(identification: xr.Dataset) -> pd.DataFrame:

@@ -191,6 +191,32 @@ class Plan:
             return spec["chunks"] + spec.get("guesses", [])
         return [spec["solution"]]
 
+    def scene_datasets(self, name):
+        """Every stage dataset scene ``name`` is computed from, in first-use order, as paths
+        relative to the results folder (``mesh/coarse.nc``, ``identify/<key>.nc``, ...).
+
+        Found by following the paths that the job specs name, from the scene's own spec
+        down to its meshes; shared files appear in every scene that uses them.
+        """
+        producers = {path: spec for stage, jobs in self.jobs.items() if stage != "scene"
+                     for path, spec in jobs.items()}
+        found = {}
+
+        def visit(value):
+            if isinstance(value, str):
+                if value in producers and value not in found:
+                    found[value] = None
+                    visit(producers[value])
+            elif isinstance(value, dict):
+                for item in value.values():
+                    visit(item)
+            elif isinstance(value, (list, tuple)):
+                for item in value:
+                    visit(item)
+
+        visit(self.scene(name))
+        return [path[len(self.results) + 1:] for path in found]
+
     def shape_source(self, name):
         """The dataset whose shapes a patient or forward scene shows."""
         spec = self.scene(name)

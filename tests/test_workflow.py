@@ -1,7 +1,9 @@
 """The Snakemake workflow end to end on a tiny config, then dry runs for the caching rules."""
 
 import copy
+import json
 import re
+from collections import Counter
 import subprocess
 import sys
 from pathlib import Path
@@ -24,6 +26,7 @@ TINY = {
                  "grid": {"mu": [15.0, 1500.0], "delta": [1e-7], "posture": ["standing", "fours"]},
                  "extreme_guesses": [4.0], "identification": {"max_iterations": 8}},
         "alice": {"kind": "patient", "mesh": "coarse", "identification": {"max_iterations": 15},
+                  "sensitivity": "linearised",
                   "postures": {"standing": {"volume": 660, "area": 344, "height": 110, "frontal_depth": 51,
                                             "back_depth": 45},
                                "bent45": {"volume": 1230, "area": 296, "height": 89, "frontal_depth": 68,
@@ -88,7 +91,7 @@ def test_every_dataset_has_units_long_names_and_provenance(workdir):
             assert key in ds.attrs, (path, key)
         stages.add(ds.attrs["stage"])
         ds.close()
-    assert stages == {"mesh", "solve", "measure", "identify", "sensitivity", "stability", "scene"}
+    assert stages == {"mesh", "solve", "measure", "identify", "sensitivity", "stability", "extreme", "scene"}
 
 
 def test_solution_dataset_follows_its_contract(workdir):
@@ -122,7 +125,31 @@ def test_scene_outputs_exist(workdir):
     assert grid.sizes["guess"] == 5 and set(grid["guess_outcome"].values) <= {
         "recovered", "wrong_minimum", "not_converged", "solve_error"}        # never a crash
     assert not (scenes / "fwd/shape_fours.png").exists()            # not asked for: not computed
-    assert not (scenes / "alice/sensitivity.png").exists()
+    assert not (scenes / "fwd/sensitivity.png").exists()
+    assert (scenes / "alice/sensitivity.png").exists()
+
+
+def test_each_scene_summary_names_its_scene(workdir):
+    for name in TINY["scenes"]:
+        with xr.open_dataset(workdir / f"results/scenes/{name}/summary.nc") as ds:
+            assert ds.attrs["scene"] == name and ds.attrs["scene_kind"] == TINY["scenes"][name]["kind"]
+            for relative in json.loads(ds.attrs["datasets"]):
+                assert (workdir / "results" / relative).is_file(), (name, relative)
+
+
+def test_logs_have_one_line_per_newton_and_identification_iteration(workdir):
+    results = workdir / "results"
+    solves = sorted((results / "solve").glob("*.nc"))
+    identifications = sorted((results / "identify").glob("*.nc"))
+    assert solves and identifications
+    for path in solves:
+        log = (results / "logs/solve" / (path.stem + ".log")).read_text()
+        with xr.open_dataset(path) as ds:
+            assert log.count("newton it=") == int(ds["newton_iterations"].sum()) > 0, path
+    for path in identifications:
+        log = (results / "logs/identify" / (path.stem + ".log")).read_text()
+        with xr.open_dataset(path) as ds:
+            assert log.count("identify it=") == ds.sizes["iteration"] > 1, path
 
 
 def test_second_run_does_nothing(workdir):
@@ -130,27 +157,44 @@ def test_second_run_does_nothing(workdir):
     assert jobs == []
 
 
+# The jobs of a patient scene with a linearised sensitivity, three postures and the report.
+PATIENT_JOBS = Counter({"measure": 1, "identify": 1, "sensitivity": 1, "scene_summary": 1, "shape_picture": 3,
+                        "shape_vtu": 3, "diagnostics_table": 1, "convergence_figure": 1, "parameter_table": 1,
+                        "sensitivity_figure": 1})
+
+
+def _new_stage_files(workdir, jobs, rules=("mesh", "solve", "measure", "identify", "sensitivity")):
+    """Stage outputs among ``jobs`` must be new files: a changed spec gets a new hashed path."""
+    for rule, output in jobs:
+        if rule in rules:
+            assert not (workdir / output).exists(), (rule, output)
+
+
 def test_changing_one_patient_measurement_reruns_only_that_patient(workdir):
     config = copy.deepcopy(TINY)
     config["scenes"]["alice"]["postures"]["standing"]["volume"] = 650
     jobs = planned_jobs(workdir, config)
-    rules = {r for r, _ in jobs}
-    assert {"measure", "identify", "scene_summary", "parameter_table"} <= rules
-    assert not rules & {"mesh", "solve", "sensitivity", "error_table"}
+    assert Counter(r for r, _ in jobs) == PATIENT_JOBS + Counter({"all": 1})
     for rule, output in jobs:
-        assert rule in ("all", "measure", "identify") or "/scenes/alice/" in output, (rule, output)
-    assert sum(r == "identify" for r, _ in jobs) == 1
+        assert rule in ("all", "measure", "identify", "sensitivity") or output.startswith("results/scenes/alice/"), \
+            (rule, output)
+    _new_stage_files(workdir, jobs)
 
 
 def test_changing_one_scene_mesh_reruns_only_that_scene(workdir):
     config = copy.deepcopy(TINY)
     config["scenes"]["syn"]["meshes"] = ["medium"]
     jobs = planned_jobs(workdir, config)
+    # The level mesh, both methods' identifications on it and the first one's sensitivity;
+    # the truth solve and its measurements are reused. Then the scene's own outputs.
+    assert Counter(r for r, _ in jobs) == Counter({
+        "all": 1, "mesh": 1, "identify": 2, "sensitivity": 1, "scene_summary": 1, "convergence_figure": 1,
+        "error_table": 1, "error_vs_runtime_figure": 1, "sensitivity_figure": 1})
+    assert ("mesh", "results/mesh/medium.nc") in jobs
     for rule, output in jobs:
-        assert "/scenes/alice/" not in output and "/scenes/fwd/" not in output, (rule, output)
-        assert rule in ("all", "mesh", "identify", "sensitivity") or "/scenes/syn/" in output, (rule, output)
-    assert ("mesh", f"{workdir.name}" and "results/mesh/medium.nc") in [(r, o) for r, o in jobs]
-    assert not any(r in ("solve", "measure") for r, _ in jobs)           # the truth is reused
+        assert rule in ("all", "mesh", "identify", "sensitivity") or output.startswith("results/scenes/syn/"), \
+            (rule, output)
+    _new_stage_files(workdir, jobs)
 
 
 def test_adding_a_patient_adds_only_its_jobs(workdir):
@@ -158,9 +202,19 @@ def test_adding_a_patient_adds_only_its_jobs(workdir):
     config["scenes"]["bob"] = copy.deepcopy(config["scenes"]["alice"])
     config["scenes"]["bob"]["postures"]["fours"]["height"] = 100
     jobs = planned_jobs(workdir, config)
+    assert Counter(r for r, _ in jobs) == PATIENT_JOBS + Counter({"all": 1})
     for rule, output in jobs:
-        assert rule in ("all", "measure", "identify") or "/scenes/bob/" in output, (rule, output)
-    assert sum(r == "identify" for r, _ in jobs) == 1
+        assert rule in ("all", "measure", "identify", "sensitivity") or output.startswith("results/scenes/bob/"), \
+            (rule, output)
+    _new_stage_files(workdir, jobs)
+
+
+def test_an_unchanged_patient_copy_shares_every_stage_file(workdir):
+    config = copy.deepcopy(TINY)
+    config["scenes"]["carol"] = copy.deepcopy(config["scenes"]["alice"])     # same data: same hashed files
+    jobs = planned_jobs(workdir, config)
+    assert Counter(r for r, _ in jobs) == PATIENT_JOBS - Counter({"measure": 1, "identify": 1, "sensitivity": 1}) \
+        + Counter({"all": 1})
 
 
 def test_lint_is_clean():
@@ -173,21 +227,37 @@ def test_lint_is_clean():
 def test_list_and_show_browse_every_dataset(workdir, capsys):
     from breastcore.cli import main
     assert main(["list", str(workdir / "results")]) == 0
-    listing = capsys.readouterr().out
-    for stage in ("mesh", "solve", "measure", "identify", "sensitivity", "stability", "scene"):
-        assert f" {stage} " in listing
-    for path in (workdir / "results").rglob("*.nc"):
+    rows = {line.split()[0]: line.split()[1:] for line in capsys.readouterr().out.splitlines()[1:]}
+    files = sorted((workdir / "results").rglob("*.nc"))
+    assert sorted(rows) == sorted(str(p) for p in files)
+    stages = {row[0] for row in rows.values()}
+    assert stages == {"mesh", "solve", "measure", "identify", "sensitivity", "stability", "extreme", "scene"}
+    for name in TINY["scenes"]:                                   # a summary names its own scene
+        assert rows[str(workdir / f"results/scenes/{name}/summary.nc")][:2] == ["scene", name]
+    # a stage dataset names the scenes it serves: the coarse mesh all four, a patient's
+    # identification only that patient
+    assert set(rows[str(workdir / "results/mesh/coarse.nc")][1].split(",")) == set(TINY["scenes"])
+    with xr.open_dataset(workdir / "results/scenes/alice/summary.nc") as ds:
+        alice = json.loads(ds.attrs["datasets"])
+    assert sorted(p.split("/")[0] for p in alice) == ["identify", "measure", "mesh", "sensitivity"]
+    identification = next(p for p in alice if p.startswith("identify/"))
+    assert rows[str(workdir / "results" / identification)][:2] == ["identify", "alice"]
+    for path in files:
         assert main(["show", str(path)]) == 0
         text = capsys.readouterr().out
         assert "[stage:" in text and "provenance: breastcore" in text
+    assert main(["list", str(workdir / "no-such-folder")]) == 2
 
 
-def test_datasets_doc_covers_every_variable(workdir):
-    doc = (ROOT / "docs/datasets.md").read_text()
+def test_every_dataset_follows_the_documented_schema(workdir):
+    from breastcore.schema_doc import documented_schema, section_of
+    schema = documented_schema((ROOT / "docs/datasets.md").read_text())
     for path in (workdir / "results").rglob("*.nc"):
         with xr.open_dataset(path) as ds:
-            missing = [name for name in ds.variables if f"`{name}`" not in doc]
-        assert not missing, (path, missing)
+            documented = schema[section_of(ds)]
+            for name, var in ds.variables.items():
+                assert name in documented, (path, name)
+                assert documented[name] == (var.dims, var.attrs["units"]), (path, name)
 
 
 def test_results_page_is_generated_from_scene_summaries(workdir):

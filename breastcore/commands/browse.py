@@ -5,7 +5,7 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
-from ..cli import existing_file
+from ..cli import UsageError, existing_file
 
 _KEY_NUMBERS = {
     "mesh": ["reference_position", "tetrahedra"],
@@ -13,6 +13,8 @@ _KEY_NUMBERS = {
     "measure": ["measurement"],
     "identify": ["estimate", "interval_low", "interval_high", "relative_error", "cost", "singular_values"],
     "sensitivity": ["linearised", "finite"],
+    "stability": ["outcome", "iterations", "min_det_F"],
+    "extreme": ["guess_label", "guess_outcome", "guess_max_error"],
     "scene": ["mean_abs_error", "wall_time", "nipple_displacement", "estimate"],
 }
 
@@ -44,7 +46,8 @@ def describe(ds) -> str:
             values = np.array2string(np.asarray(var.values), precision=4, threshold=40, max_line_width=100)
             values = values.replace("\n", "\n" + " " * 6)
             lines.append(f"  {name} [{var.attrs.get('units', '')}] ({var.attrs.get('long_name', '')}):\n      {values}")
-    for key in ("success", "message", "mesh_level", "solver", "method", "measurement_set", "scene", "source"):
+    for key in ("success", "message", "mesh_level", "solver", "method", "measurement_set", "outcome_counts",
+                "guess_outcome_counts", "scene", "source"):
         if key in a:
             lines.append(f"  {key}: {a[key]}")
     lines.append(f"  provenance: breastcore {a.get('breastcore_version')} (source {a.get('source_hash')}), "
@@ -57,22 +60,45 @@ def run_show(args):
     print(describe(open_dataset(args.dataset)))
 
 
+def scenes_by_dataset(summaries) -> dict:
+    """Resolved path of each stage dataset -> the scenes whose summary lists it.
+
+    ``summaries``: ``(path, attrs)`` of scene summaries at ``RESULTS/scenes/NAME/summary.nc``;
+    their ``datasets`` attribute (JSON) holds paths relative to ``RESULTS``.
+    """
+    users = {}
+    for path, attrs in summaries:
+        root = Path(path).parent.parent.parent
+        for relative in json.loads(attrs.get("datasets", "[]")):
+            users.setdefault((root / relative).resolve(), []).append(attrs.get("scene", "?"))
+    return users
+
+
 def run_list(args):
     import xarray as xr
 
     folder = Path(args.folder)
-    rows = []
+    if not folder.is_dir():
+        raise UsageError(f"no such folder {str(folder)!r}")
+    found = []
     for path in sorted(folder.rglob("*.nc")):
         try:
             with xr.open_dataset(path) as ds:
-                a = ds.attrs
-                rows.append((str(path), a.get("stage", "?"), a.get("scene", a.get("mesh_level", "")),
-                             a.get("created", "")))
+                found.append((path, dict(ds.attrs)))
         except (OSError, ValueError):
-            rows.append((str(path), "unreadable", "", ""))
+            found.append((path, None))
+    users = scenes_by_dataset([(p, a) for p, a in found if a and a.get("stage") == "scene"])
+    rows = []
+    for path, a in found:
+        if a is None:
+            rows.append((str(path), "unreadable", "", "", ""))
+            continue
+        scenes = a.get("scene") or ",".join(sorted(set(users.get(path.resolve(), [])))) or "-"
+        rows.append((str(path), a.get("stage", "?"), scenes, a.get("mesh_level", ""), a.get("created", "")))
     width = max((len(r[0]) for r in rows), default=4)
-    print(f"{'file':<{width}}  {'stage':<12} {'scene / mesh':<20} created")
+    scene_width = max([len(r[2]) for r in rows] + [5])
+    print(f"{'file':<{width}}  {'stage':<12} {'scene':<{scene_width}}  {'mesh':<11} created")
     for r in rows:
-        print(f"{r[0]:<{width}}  {r[1]:<12} {r[2]:<20} {r[3]}")
+        print(f"{r[0]:<{width}}  {r[1]:<12} {r[2]:<{scene_width}}  {r[3]:<11} {r[4]}")
     if not rows:
         print(f"(no datasets under {folder})")

@@ -7,6 +7,7 @@ rule scene_summary:
     params:
         spec=lambda w: scene_of(w),
         scene=lambda w: w.scene,
+        datasets=lambda w: PLAN.scene_datasets(w.scene),
         code=CODE,
     conda: "../envs/breastcore.yaml"
     script: "../scripts/scene_summary.py"

@@ -2,7 +2,7 @@
 
 from breastcore.datasets import write_netcdf
 from breastcore.logs import log_to
-from breastcore.scene import solution_summary, stability_summary, synthetic_summary
+from breastcore.scene import record_datasets, solution_summary, stability_summary, synthetic_summary
 from breastcore.workflow_plan import spec_key
 
 
@@ -19,7 +19,7 @@ def main(snakemake):
         else:
             source = spec["identification"] if spec["kind"] == "patient" else spec["solution"]
             ds = solution_summary(source, name, spec["kind"], spec_key(spec))
-        write_netcdf(ds, snakemake.output[0])
+        write_netcdf(record_datasets(ds, snakemake.params.datasets), snakemake.output[0])
 
 
 if __name__ == "__main__":
