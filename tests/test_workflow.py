@@ -277,3 +277,31 @@ def test_report_is_self_contained_html_with_every_figure(workdir):
     for caption in ("posture", "Identification history", "Relative sensitivity", "Identified parameters",
                     "Forward-solver diagnostics", "stability scene"):
         assert caption.lower() in html.lower(), caption
+
+
+def test_a_scene_plans_only_what_it_needs(tmp_path):
+    """Dry runs from an empty folder: a patient scene without sensitivity plans no solve,
+    no truth and no sensitivity, and shapes only its measured postures; a forward scene
+    solves only its listed postures; a synthetic truth solves only its scene's postures."""
+    from breastcore.workflow_config import validate_config
+    from breastcore.workflow_plan import Plan
+    two = {p: v for p, v in TINY["scenes"]["alice"]["postures"].items() if p != "bent45"}
+    config = {"scenes": {"p": {**TINY["scenes"]["alice"], "postures": two, "sensitivity": "none"}}}
+    (tmp_path / "config.yaml").write_text(yaml.safe_dump(config))
+    out = snakemake(tmp_path, "-n")
+    assert out.returncode == 0, out.stderr
+    rules = Counter(re.findall(r"^(?:local)?rule (\w+):", out.stdout, re.M))
+    assert rules == Counter({"all": 1, "mesh": 1, "measure": 1, "identify": 1, "scene_summary": 1,
+                             "shape_picture": 2, "shape_vtu": 2, "diagnostics_table": 1, "convergence_figure": 1,
+                             "parameter_table": 1})
+    assert "shape_bent45" not in out.stdout
+
+    schema = ROOT / "workflow/schemas/config.schema.yaml"
+    config = validate_config({"scenes": {
+        "f": {"kind": "forward", "mesh": "coarse", "postures": ["fours", "lean=30"]},
+        "s": {"kind": "synthetic", "truth_mesh": "medium", "meshes": ["coarse"], "postures": ["standing", "fours"],
+              "measurement_set": "paper15", "sensitivity": "none"}}}, schema)
+    plan = Plan(config)
+    postures = [[p["name"] for p in spec["postures"]] for spec in plan.jobs["solve"].values()]
+    assert sorted(postures) == [["fours", "lean"], ["standing", "fours"]]
+    assert not plan.jobs["sensitivity"] and not plan.jobs["stability"] and not plan.jobs["extreme"]
