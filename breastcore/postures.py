@@ -18,7 +18,11 @@ class PostureError(ValueError):
 
 @dataclass(frozen=True)
 class Posture:
-    """A named posture with forward-bend angle ``angle`` in degrees, 0 ≤ θ ≤ 90."""
+    """A named posture with forward-bend angle ``angle`` in degrees, 0 ≤ θ ≤ 90.
+
+    A paper posture's name keeps its own angle: ``Posture("standing", 45)`` is refused,
+    since data labelled standing would otherwise be solved bent forward.
+    """
 
     name: str
     angle: float
@@ -28,6 +32,9 @@ class Posture:
             raise PostureError(f"posture name {self.name!r} must be an identifier (letters, digits, _ or -)")
         if not (math.isfinite(self.angle) and 0.0 <= self.angle <= 90.0):
             raise PostureError(f"posture {self.name!r}: angle must be in [0, 90] degrees, got {self.angle}")
+        if self.name in PAPER_POSTURES and self.angle != PAPER_POSTURES[self.name]:
+            raise PostureError(f"posture {self.name!r} is the paper's posture at {PAPER_POSTURES[self.name]:g} "
+                               f"degrees; give another name for {self.angle:g} degrees")
 
     def gravity(self, g=9.81):
         """``a_g = g (0, sin θ, −cos θ)`` in m s⁻² (spec §3)."""
@@ -36,11 +43,7 @@ class Posture:
 
 
 def parse_posture(text: str) -> Posture:
-    """``"NAME"`` (one of the paper's) or ``"NAME=ANGLE"`` (degrees).
-
-    A paper posture's name keeps its own angle: ``standing=45`` is refused, since data
-    labelled standing would otherwise be solved bent forward.
-    """
+    """``"NAME"`` (one of the paper's) or ``"NAME=ANGLE"`` (degrees)."""
     if "=" in text:
         name, _, angle = text.partition("=")
         name = name.strip()
@@ -48,9 +51,6 @@ def parse_posture(text: str) -> Posture:
             value = float(angle)
         except ValueError:
             raise PostureError(f"posture {text!r}: angle {angle!r} is not a number") from None
-        if name in PAPER_POSTURES and value != PAPER_POSTURES[name]:
-            raise PostureError(f"posture {text!r}: {name} is the paper's posture at {PAPER_POSTURES[name]:g} "
-                               f"degrees; give another name for {value:g} degrees")
         return Posture(name, value)
     if text not in PAPER_POSTURES:
         raise PostureError(f"unknown posture {text!r}; known: {', '.join(PAPER_POSTURES)} (or NAME=ANGLE)")

@@ -29,6 +29,7 @@ def test_solve_help_lists_every_option_with_default():
     (["--lambda-skin", "-1"], "--lambda-skin"),
     (["--posture", "supine"], "--posture"),
     (["--posture", "tilt=120"], "--posture"),
+    (["--posture", "standing=45"], "--posture"),     # a paper posture's name keeps its angle
     (["--mesh", "gigantic"], "--mesh"),
     (["--mesh-size", "-0.01"], "--mesh-size"),
     (["--R", "nan"], "--R"),

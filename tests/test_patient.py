@@ -121,6 +121,7 @@ BAD = {
     "unknown posture": (_set(["postures", "sitting"], dict(zip(QUANTITIES, ROWS["fours"]))), ["sitting"]),
     "bad angle": (_set(["postures", "sitting"], {"angle": 120, **dict(zip(QUANTITIES, ROWS["fours"]))}),
                   ["sitting", "120"]),
+    "paper posture at another angle": (_set(["postures", "standing", "angle"], 45), ["standing", "45"]),
     "unknown quantity": (_set(["postures", "fours", "volumen"], 480), ["fours", "volumen"]),
     "missing quantity": (_set(["postures", "bent45", "frontal_depth"], KeyError), ["bent45", "frontal_depth"]),
     "unknown unit": (_set(["units", "height"], "inch"), ["height", "inch"]),
