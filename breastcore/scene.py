@@ -127,9 +127,12 @@ def solution_summary(path, name, kind, config_hash=None) -> xr.Dataset:
 
 
 def record_datasets(summary: xr.Dataset, datasets) -> xr.Dataset:
-    """Record in ``summary.attrs["datasets"]`` (JSON) the stage datasets the scene is computed
-    from, as paths relative to the results folder, so that ``breastcore list`` can name the
-    scenes each shared mesh, solve or identification file serves."""
+    """Store the scene's lineage in ``summary.attrs["datasets"]`` (JSON list).
+
+    ``datasets``: the stage datasets the scene is computed from, as paths relative to the
+    results folder (:meth:`breastcore.workflow_plan.Plan.scene_datasets`). With them
+    ``breastcore list`` names the scenes that each shared mesh, solve or identification serves.
+    """
     summary.attrs["datasets"] = json.dumps(list(datasets))
     return summary
 

@@ -8,6 +8,8 @@ from __future__ import annotations
 
 import copy
 import math
+import os
+import re
 from pathlib import Path
 
 import jsonschema
@@ -17,6 +19,10 @@ from .mesh import LEVEL_MESH_SIZE
 from .postures import PostureError, parse_posture
 
 SCENE_KINDS = ("synthetic", "patient", "forward", "stability")
+
+
+#: A number in exponent form, which YAML 1.1 reads as text unless written like 1.0e+3.
+_EXPONENT = re.compile(r"[-+]?(\d+\.?\d*|\.\d+)[eE][-+]?\d+")
 
 
 class ConfigError(ValueError):
@@ -48,29 +54,48 @@ def fill_defaults(instance, schema, root):
     return instance
 
 
-def _repeated_key(node, where=""):
-    """Raise ConfigError at the first key given twice in one mapping of a YAML node tree."""
+def _repeated_key(node, where="", seen=None):
+    """Raise ConfigError at the first scalar key given twice in one mapping of a YAML node tree.
+
+    Merge keys (``<<``) are left to YAML, which applies them all; an alias met again is
+    not walked twice.
+    """
+    seen = set() if seen is None else seen
+    if id(node) in seen:
+        return
+    seen.add(id(node))
     if isinstance(node, yaml.MappingNode):
         lines = {}
         for key_node, value_node in node.value:
+            if not isinstance(key_node, yaml.ScalarNode) or key_node.tag == "tag:yaml.org,2002:merge":
+                continue
+            key = (key_node.tag, key_node.value)
             path = f"{where}.{key_node.value}" if where else str(key_node.value)
             line = key_node.start_mark.line + 1
-            if key_node.value in lines:
-                raise ConfigError(f"config key {path}: given twice, at lines {lines[key_node.value]} and {line} "
+            if key in lines:
+                raise ConfigError(f"config key {path}: given twice, at lines {lines[key]} and {line} "
                                   f"of {key_node.start_mark.name}; YAML would silently keep the last")
-            lines[key_node.value] = line
-            _repeated_key(value_node, path)
+            lines[key] = line
+            _repeated_key(value_node, path, seen)
     elif isinstance(node, yaml.SequenceNode):
         for i, item in enumerate(node.value):
-            _repeated_key(item, f"{where}[{i}]")
+            _repeated_key(item, f"{where}[{i}]", seen)
 
 
 def check_config_files(paths) -> None:
     """Refuse a config file with a repeated key (e.g. two scenes of one name): Snakemake's
-    loader, like YAML, silently keeps the last. Raises ConfigError naming the key and lines."""
+    loader, like YAML, silently keeps the last. Raises ConfigError naming the key and lines.
+
+    A file that does not parse as YAML (e.g. JSON indented with tabs, which Snakemake
+    accepts) is left to Snakemake's own loader.
+    """
     for path in paths:
-        with open(path) as stream:
-            _repeated_key(yaml.compose(stream, Loader=yaml.SafeLoader))
+        with open(path, encoding="utf-8") as stream:
+            try:
+                tree = yaml.compose(stream, Loader=yaml.SafeLoader)
+            except yaml.YAMLError:
+                continue
+        _repeated_key(tree)
 
 
 def _check(instance, schema, root, where):
@@ -81,17 +106,10 @@ def _check(instance, schema, root, where):
         message = error.message
         if error.validator == "additionalProperties":
             message = "unknown key: " + message.split("(")[-1].rstrip(")").replace(" was unexpected", "")
-        if error.validator == "type" and isinstance(error.instance, str) and _is_number(error.instance):
-            message += " (YAML reads an exponent without a decimal point, such as 1e3, as text: write 1.0e3)"
+        if error.validator == "type" and isinstance(error.instance, str) and _EXPONENT.fullmatch(error.instance.strip()):
+            message += (" (YAML reads a number with an exponent as a number only with a decimal point and a signed "
+                        "exponent: write 1.0e+3, not 1e3 or 1.0e3)")
         raise ConfigError(f"config key {path or '<top>'}: {message}")
-
-
-def _is_number(text):
-    try:
-        float(text)
-    except ValueError:
-        return False
-    return True
 
 
 def _finite(value, where):
@@ -138,8 +156,8 @@ def validate_config(config, schema_path) -> dict:
     _finite(config, "")
     _check(config, root, root, "")
     fill_defaults(config, root, root)
-    if not config["results"].strip("/"):
-        raise ConfigError(f"config key results: {config['results']!r} is empty or the file-system root; "
+    if os.path.normpath(config["results"].strip()) in (".", "/", "//"):
+        raise ConfigError(f"config key results: {config['results']!r} is empty, the working folder or the file-system root; "
                           f"give a folder such as 'results'")
     if not config["scenes"]:
         raise ConfigError("config key scenes: no scene, so nothing to compute; see config.yaml for examples")

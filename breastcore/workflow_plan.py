@@ -12,6 +12,9 @@ Paths (under ``results/``)::
     measure/{key}.nc                        measurement dataset (synthetic or patient)
     identify/{key}.nc                       identification dataset
     sensitivity/{key}.nc                    sensitivity dataset
+    stability/{key}.nc                      one chunk of a stability scene's grid
+    extreme/{key}.nc                        identifications from extreme guesses on one level
+    scenes/{scene}/summary.nc               the scene's summary; attrs["datasets"] lists the above it uses
     scenes/{scene}/...                      per-scene tables and figures (report)
 """
 

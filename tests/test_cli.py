@@ -2,6 +2,7 @@
 
 import subprocess
 import sys
+from pathlib import Path
 
 import pytest
 
@@ -61,3 +62,32 @@ def test_bad_identify_cost_rtol_is_one_line_naming_the_option(tmp_path, value):
     lines = out.stderr.strip().splitlines()
     assert len(lines) == 1 and "--cost-rtol" in lines[0], out.stderr
     assert not (tmp_path / "x.nc").exists()
+
+
+def test_list_names_the_scenes_each_dataset_serves(tmp_path, capsys):
+    import xarray as xr
+
+    from breastcore.cli import main
+
+    def write(relative, **attrs):
+        path = tmp_path / "results" / relative
+        path.parent.mkdir(parents=True, exist_ok=True)
+        xr.Dataset(attrs={"created": "now", **attrs}).to_netcdf(path)
+
+    write("mesh/coarse.nc", stage="mesh", mesh_level="coarse")
+    write("mesh/medium.nc", stage="mesh", mesh_level="medium")
+    write("scenes/a/summary.nc", stage="scene", scene="a", datasets='["mesh/coarse.nc"]')
+    write("scenes/b/summary.nc", stage="scene", scene="b", datasets='["mesh/coarse.nc", "mesh/medium.nc"]')
+    write("scenes/c/summary.nc", stage="scene", scene="c", datasets="not json")     # damaged: names nothing
+    write("scenes/d/summary.nc", stage="scene", scene="d")                          # older: no lineage
+
+    assert main(["list", str(tmp_path / "results") + "/"]) == 0
+    rows = {Path(line.split()[0]).relative_to(tmp_path / "results").as_posix(): line.split()[1:3]
+            for line in capsys.readouterr().out.splitlines()[1:]}
+    assert rows["mesh/coarse.nc"] == ["mesh", "a,b"] and rows["mesh/medium.nc"] == ["mesh", "b"]
+    assert rows["scenes/c/summary.nc"] == ["scene", "c"] and rows["scenes/d/summary.nc"] == ["scene", "d"]
+
+    assert main(["list", str(tmp_path / "results/mesh")]) == 0     # no summary below: scenes unknown
+    out = capsys.readouterr().out
+    assert [line.split()[2] for line in out.splitlines()[1:3]] == ["?", "?"]
+    assert "list the whole results folder" in out

@@ -2,6 +2,7 @@
 
 import copy
 import json
+import os
 import re
 from collections import Counter
 import subprocess
@@ -19,7 +20,7 @@ TINY = {
     "report": {"enabled": True},
     "scenes": {
         "syn": {"kind": "synthetic", "truth_mesh": "medium", "meshes": ["coarse"], "offsets": [0.1], "paper_table": "table1",
-                "sensitivity": "linearised", "identification": {"max_iterations": 15},
+                "sensitivity": "both", "tables": ["levels"], "identification": {"max_iterations": 15},
                 "methods": [{"name": "lm", "max_iterations": 15},
                             {"name": "paper", "method": "gauss-newton", "jacobian": "fd", "max_iterations": 2}]},
         "grid": {"kind": "stability", "meshes": ["coarse"], "sample": 3, "chunks": 1,
@@ -185,14 +186,15 @@ def test_changing_one_scene_mesh_reruns_only_that_scene(workdir):
     config = copy.deepcopy(TINY)
     config["scenes"]["syn"]["meshes"] = ["medium"]
     jobs = planned_jobs(workdir, config)
-    # The level mesh, both methods' identifications on it and the first one's sensitivity;
-    # the truth solve and its measurements are reused. Then the scene's own outputs.
+    # The level mesh, the level's solve at the truth (the `levels` table), both methods'
+    # identifications on it and the first one's sensitivity; the truth solve and its
+    # measurements are reused. Then the scene's own outputs.
     assert Counter(r for r, _ in jobs) == Counter({
-        "all": 1, "mesh": 1, "identify": 2, "sensitivity": 1, "scene_summary": 1, "convergence_figure": 1,
-        "error_table": 1, "error_vs_runtime_figure": 1, "sensitivity_figure": 1})
+        "all": 1, "mesh": 1, "solve": 1, "identify": 2, "sensitivity": 1, "scene_summary": 1,
+        "convergence_figure": 1, "error_table": 1, "error_vs_runtime_figure": 1, "sensitivity_figure": 1})
     assert ("mesh", "results/mesh/medium.nc") in jobs
     for rule, output in jobs:
-        assert rule in ("all", "mesh", "identify", "sensitivity") or output.startswith("results/scenes/syn/"), \
+        assert rule in ("all", "mesh", "solve", "identify", "sensitivity") or output.startswith("results/scenes/syn/"), \
             (rule, output)
     _new_stage_files(workdir, jobs)
 
@@ -247,6 +249,16 @@ def test_list_and_show_browse_every_dataset(workdir, capsys):
         text = capsys.readouterr().out
         assert "[stage:" in text and "provenance: breastcore" in text
     assert main(["list", str(workdir / "no-such-folder")]) == 2
+
+
+def test_datasets_doc_is_rendered_from_this_workflow(workdir):
+    from breastcore.schema_doc import render
+    page = render(workdir / "results")
+    doc = ROOT / "docs/datasets.md"
+    if os.environ.get("BREASTCORE_WRITE_DATASETS_DOC") == "1":
+        doc.write_text(page)
+    assert doc.read_text() == page, "docs/datasets.md is stale: BREASTCORE_WRITE_DATASETS_DOC=1 pytest " \
+                                    "tests/test_workflow.py rewrites it"
 
 
 def test_every_dataset_follows_the_documented_schema(workdir):

@@ -1,6 +1,7 @@
 """config.yaml validation: every bad input stops with a message naming the key."""
 
 import copy
+import re
 import subprocess
 import sys
 from pathlib import Path
@@ -99,7 +100,10 @@ def _negative_volume():
 
 
 def _repeated_scene():
-    return (ROOT / "config.yaml").read_text() + "  forward_demo:\n    kind: forward\n    mesh: coarse\n"
+    """config.yaml with a second scene named forward_demo written into its scenes mapping."""
+    lines = (ROOT / "config.yaml").read_text().splitlines(keepends=True)
+    at = lines.index("scenes:\n") + 1
+    return "".join(lines[:at] + ["  forward_demo:\n", "    kind: forward\n", "    mesh: coarse\n"] + lines[at:])
 
 
 @pytest.mark.parametrize("text, key", [(_negative_volume, "scenes.example_patient.postures.standing.volume"),
@@ -122,10 +126,18 @@ def test_repeated_key_is_refused_with_both_lines(tmp_path):
         check_config_files([path])
     path.write_text("scenes:\n  a: {kind: forward, postures: [standing, fours]}\n  b: {kind: forward}\n")
     check_config_files([path])                                   # repeated values are fine, keys are not
+    fine = ["base: &b {kind: forward, mesh: coarse}\nscenes:\n  a: {<<: *b, mesh: medium}\n  b: {<<: *b}\n",
+            "1: one\n'1': text one\n",                        # an integer key and a string key
+            "a: &r [1, *r]\n",                                  # a self-referencing alias
+            '{\n\t"scenes": {}\n}\n',                            # JSON with tabs: YAML cannot read it
+            ""]
+    for text in fine:
+        path.write_text(text)
+        check_config_files([path])
 
 
 def test_results_folder_must_be_a_folder():
-    for bad in ("", "/", "//"):
+    for bad in ("", " ", ".", "./", "/", "//"):
         msg = _bad(lambda c: c.update(results=bad))
         assert msg.startswith("config key results:"), msg
 
@@ -152,9 +164,15 @@ def test_paper_posture_name_keeps_its_angle():
     validate_config(config, SCHEMA)                                # the same angle, or a new name: fine
 
 
-def test_exponent_without_decimal_point_gets_a_hint():
-    msg = _bad(lambda c: c["scenes"]["forward_demo"]["parameters"].update(lambda_breast="1e3"))
-    assert "scenes.forward_demo.parameters.lambda_breast" in msg and "write 1.0e3" in msg
+@pytest.mark.parametrize("written", ["1e3", "1.0e3", "1e+3"])
+def test_exponent_yaml_reads_as_text_gets_a_hint_that_works(written):
+    value = yaml.safe_load(f"x: {written}")["x"]
+    assert value == written                                       # YAML 1.1 reads it as text
+    msg = _bad(lambda c: c["scenes"]["forward_demo"]["parameters"].update(lambda_breast=value))
+    assert "scenes.forward_demo.parameters.lambda_breast" in msg
+    suggested = re.search(r"write (\S+),", msg).group(1)
+    assert yaml.safe_load(f"x: {suggested}")["x"] == 1000.0      # the advice parses as a number
+    assert "write" not in _bad(lambda c: c["scenes"]["forward_demo"]["parameters"].update(lambda_breast="660"))
 
 
 def test_max_starts_keeps_the_first_guesses_of_the_full_draw():

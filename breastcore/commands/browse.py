@@ -69,7 +69,11 @@ def scenes_by_dataset(summaries) -> dict:
     users = {}
     for path, attrs in summaries:
         root = Path(path).parent.parent.parent
-        for relative in json.loads(attrs.get("datasets", "[]")):
+        try:
+            datasets = json.loads(attrs.get("datasets", "[]"))
+        except ValueError:                      # not ours, or damaged: it names no dataset
+            datasets = []
+        for relative in datasets:
             users.setdefault((root / relative).resolve(), []).append(attrs.get("scene", "?"))
     return users
 
@@ -87,13 +91,15 @@ def run_list(args):
                 found.append((path, dict(ds.attrs)))
         except (OSError, ValueError):
             found.append((path, None))
-    users = scenes_by_dataset([(p, a) for p, a in found if a and a.get("stage") == "scene"])
+    summaries = [(p, a) for p, a in found if a and a.get("stage") == "scene"]
+    users = scenes_by_dataset(summaries)
+    unknown = "-" if summaries else "?"         # no summary below FOLDER: the scenes are unknown
     rows = []
     for path, a in found:
         if a is None:
             rows.append((str(path), "unreadable", "", "", ""))
             continue
-        scenes = a.get("scene") or ",".join(sorted(set(users.get(path.resolve(), [])))) or "-"
+        scenes = a.get("scene") or ",".join(sorted(set(users.get(path.resolve(), [])))) or unknown
         rows.append((str(path), a.get("stage", "?"), scenes, a.get("mesh_level", ""), a.get("created", "")))
     width = max((len(r[0]) for r in rows), default=4)
     scene_width = max([len(r[2]) for r in rows] + [5])
@@ -102,3 +108,5 @@ def run_list(args):
         print(f"{r[0]:<{width}}  {r[1]:<12} {r[2]:<{scene_width}}  {r[3]:<11} {r[4]}")
     if not rows:
         print(f"(no datasets under {folder})")
+    elif not summaries:
+        print(f"(scene '?': no scene summary under {folder}; list the whole results folder to see the scenes)")
