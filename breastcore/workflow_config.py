@@ -16,7 +16,7 @@ import jsonschema
 import yaml
 
 from .mesh import LEVEL_MESH_SIZE
-from .postures import PostureError, parse_posture
+from .postures import PAPER_POSTURES, PostureError, parse_posture
 
 SCENE_KINDS = ("synthetic", "patient", "forward", "stability")
 
@@ -138,6 +138,18 @@ def _postures(texts, where):
         raise ConfigError(f"config key {where}: repeated posture in {names}")
 
 
+def _patient_posture(key, values, where):
+    """A patient's posture key is a name: one of the paper's, or any name with ``angle:``."""
+    if "=" in key:
+        name, _, angle = key.partition("=")
+        raise ConfigError(f"config key {where}: a patient's posture key is a name; give the angle inside it: "
+                          f"{name.strip()}: {{angle: {angle.strip()}, volume: ..., ...}}")
+    if "angle" not in values and key not in PAPER_POSTURES:
+        raise ConfigError(f"config key {where}: unknown posture {key!r}; known: {', '.join(PAPER_POSTURES)}, "
+                          f"or any name with its forward-bend angle as angle: DEGREES")
+    _postures([key if "angle" not in values else f"{key}={values['angle']}"], where)
+
+
 def _cap(values, where):
     if values.get("H", 0) >= values.get("R", 1):
         raise ConfigError(f"config key {where}.H: H = {values['H']} m must be < R = {values['R']} m")
@@ -190,8 +202,7 @@ def validate_config(config, schema_path) -> dict:
         elif kind == "patient":
             _levels([scene["mesh"]], f"{where}.mesh")
             for posture, values in scene["postures"].items():
-                _postures([posture if "angle" not in values else f"{posture}={values['angle']}"],
-                          f"{where}.postures.{posture}")
+                _patient_posture(posture, values, f"{where}.postures.{posture}")
                 missing = [q for q in ("volume", "area", "height", "frontal_depth", "back_depth") if q not in values]
                 if missing:
                     raise ConfigError(f"config key {where}.postures.{posture}: missing {', '.join(missing)}")

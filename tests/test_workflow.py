@@ -295,20 +295,22 @@ def test_report_is_self_contained_html_with_every_figure(workdir):
 
 def test_a_scene_plans_only_what_it_needs(tmp_path):
     """Dry runs from an empty folder: a patient scene without sensitivity plans no solve,
-    no truth and no sensitivity, and shapes only its measured postures; a forward scene
+    no truth and no sensitivity, and shapes only its measured postures (one at its own
+    angle); a forward scene
     solves only its listed postures; a synthetic truth solves only its scene's postures."""
     from breastcore.workflow_config import validate_config
     from breastcore.workflow_plan import Plan
-    two = {p: v for p, v in TINY["scenes"]["alice"]["postures"].items() if p != "bent45"}
-    config = {"scenes": {"p": {**TINY["scenes"]["alice"], "postures": two, "sensitivity": "none"}}}
+    postures = dict(TINY["scenes"]["alice"]["postures"])
+    postures["lean"] = {"angle": 30, **postures.pop("bent45")}       # a posture of the patient's own
+    config = {"scenes": {"p": {**TINY["scenes"]["alice"], "postures": postures, "sensitivity": "none"}}}
     (tmp_path / "config.yaml").write_text(yaml.safe_dump(config))
     out = snakemake(tmp_path, "-n")
     assert out.returncode == 0, out.stderr
     rules = Counter(re.findall(r"^(?:local)?rule (\w+):", out.stdout, re.M))
     assert rules == Counter({"all": 1, "mesh": 1, "measure": 1, "identify": 1, "scene_summary": 1,
-                             "shape_picture": 2, "shape_vtu": 2, "diagnostics_table": 1, "convergence_figure": 1,
+                             "shape_picture": 3, "shape_vtu": 3, "diagnostics_table": 1, "convergence_figure": 1,
                              "parameter_table": 1})
-    assert "shape_bent45" not in out.stdout
+    assert "shape_bent45" not in out.stdout and "results/scenes/p/shape_lean.png" in out.stdout
 
     schema = ROOT / "workflow/schemas/config.schema.yaml"
     config = validate_config({"scenes": {

@@ -153,6 +153,17 @@ def test_unknown_truth_mesh_names_its_own_key():
     assert msg.startswith("config key scenes.error_vs_runtime.methods[2].meshes:"), msg
 
 
+def test_patient_posture_key_is_a_name_with_an_optional_angle():
+    values = dict(DEFAULT["scenes"]["example_patient"]["postures"]["standing"])
+    msg = _bad(lambda c: c["scenes"]["example_patient"]["postures"].update({"lean=30": dict(values)}))
+    assert msg.startswith("config key scenes.example_patient.postures.lean=30:") and "lean: {angle: 30" in msg
+    msg = _bad(lambda c: c["scenes"]["example_patient"]["postures"].update(lean=dict(values)))
+    assert "postures.lean: unknown posture 'lean'" in msg and "angle: DEGREES" in msg
+    config = copy.deepcopy(DEFAULT)
+    config["scenes"]["example_patient"]["postures"]["lean"] = {"angle": 30, **values}
+    validate_config(config, SCHEMA)
+
+
 def test_paper_posture_name_keeps_its_angle():
     msg = _bad(lambda c: c["scenes"]["example_patient"]["postures"]["standing"].update(angle=45))
     assert "scenes.example_patient.postures.standing" in msg and "0 degrees" in msg
