@@ -180,7 +180,7 @@ def identify(mm, target, initial, options=IdentificationOptions(), weights=None)
         result.cost.append(float(np.sum(w * error**2)))
         result.wall_time.append(time.perf_counter() - tic)
         log.info("identify it=%d E=%.6e Λ=%s", len(result.cost) - 1, result.cost[-1],
-                 np.array2string(np.asarray(values), precision=6))
+                 np.array2string(np.asarray(values), precision=6, max_line_width=1000))   # one line per iteration
 
     record(initial, solutions)
     run = _levenberg_marquardt if options.method == "lm" else _gauss_newton

@@ -26,7 +26,8 @@ def synthetic_summary(runs, paths, name, config_hash=None, tables=(), sensitivit
     ``sensitivity_*(parameter, measurement)``, with their ranks and conditions.
     ``truth`` and ``level_solutions`` (``{level: path}``): the truth solution and a
     solution at the same parameters on each level; with both, the summary carries
-    ``discretisation_error(level, posture, quantity) = M_level/M_truth − 1``.
+    ``discretisation_error(level, posture, quantity) = M_level/M_truth − 1``. The truth's
+    parameters become the summary's ``parameters`` attribute.
     """
     rows = [open_dataset(p) for p in paths]
     rel = np.array([ds["relative_error"].values for ds in rows])
@@ -68,7 +69,9 @@ def synthetic_summary(runs, paths, name, config_hash=None, tables=(), sensitivit
                  if k.startswith(("linearised_", "finite_")) or k == "delta"}
         extra["sensitivity_mesh"] = runs[0]["mesh"]        # the plan analyses the scene's first run
     ds = xr.Dataset(data, coords=coords)
-    ds.attrs = provenance("scene", None, config_hash, scene=name, scene_kind="synthetic", tables=",".join(tables),
+    truth_parameters = json.loads(open_dataset(truth).attrs.get("parameters", "{}")) if truth else None
+    ds.attrs = provenance("scene", truth_parameters, config_hash, scene=name, scene_kind="synthetic",
+                          tables=",".join(tables),
                           paper_table=paper_table,
                           title=f"synthetic identification study {name}", **extra)
     return ds
@@ -121,7 +124,9 @@ def solution_summary(path, name, kind, config_hash=None) -> xr.Dataset:
     out = xr.Dataset(data, coords={k: ds[k].variable for k in ("posture", "xyz") if k in ds.coords}
                      | ({"parameter": ds["parameter"].variable} if kind == "patient" else {})
                      | ({"iteration": ds["iteration"].variable} if kind == "patient" else {}))
-    out.attrs = provenance("scene", None, config_hash, scene=name, scene_kind=kind, source=str(path),
+    # the Λ that defines the scene: a forward scene's, or a patient's estimate
+    out.attrs = provenance("scene", json.loads(ds.attrs.get("parameters", "{}")), config_hash, scene=name,
+                           scene_kind=kind, source=str(path),
                            title=f"{kind} scene {name}")
     return out
 

@@ -246,10 +246,24 @@ def test_list_and_show_browse_every_dataset(workdir, capsys):
     assert sorted(p.split("/")[0] for p in alice) == ["identify", "measure", "mesh", "sensitivity"]
     identification = next(p for p in alice if p.startswith("identify/"))
     assert rows[str(workdir / "results" / identification)][:2] == ["identify", "alice"]
+    shown = {}
     for path in files:
         assert main(["show", str(path)]) == 0
-        text = capsys.readouterr().out
+        shown[path.relative_to(workdir / "results").as_posix()] = text = capsys.readouterr().out
         assert "[stage:" in text and "provenance: breastcore" in text
+    # key numbers to 4 significant digits with the names along their dimensions; a scene
+    # shows the Λ that defines it
+    measured = next(text for path, text in shown.items() if path.startswith("measure/") and "source: patient" in text)
+    standing = TINY["scenes"]["alice"]["postures"]["standing"]
+    assert f"{standing['volume'] * 1e-6:.4g}" in measured and f"{standing['area'] * 1e-4:.4g}" in measured
+    postures = re.search(r"posture: (.*)\n", measured).group(1).split(", ")
+    assert sorted(postures) == sorted(TINY["scenes"]["alice"]["postures"])
+    assert "quantity: volume, area, height, frontal_depth, back_depth" in measured
+    for scene in ("fwd", "syn"):                       # the default Λ̄ is the forward and the truth parameters
+        assert "parameters: R=0.0562 m, H=0.05 m, lambda_breast=1000 Pa" in shown[f"scenes/{scene}/summary.nc"]
+    assert "run: lm/coarse, paper/coarse" in shown["scenes/syn/summary.nc"]
+    with xr.open_dataset(workdir / "results" / identification) as ds:
+        assert f"parameters: R={float(ds['estimate'][0]):.6g} m" in shown["scenes/alice/summary.nc"]
     assert main(["list", str(workdir / "no-such-folder")]) == 2
 
 
@@ -288,16 +302,31 @@ def test_report_is_self_contained_html_with_every_figure(workdir):
     out = snakemake(workdir, "--report", "report.html")
     assert out.returncode == 0, out.stderr[-2000:]
     html = (workdir / "report.html").read_text(errors="replace")
-    for caption in ("posture", "Identification history", "Relative sensitivity", "Identified parameters",
-                    "Forward-solver diagnostics", "stability scene"):
+    for caption in ("views of the skin mesh", "Identification history", "Relative sensitivity",
+                    "Identified parameters", "Forward-solver diagnostics", "stability scene"):
         assert caption.lower() in html.lower(), caption
+    # Snakemake's index of the report: category -> scene -> files. Each item of the issue's
+    # list, for every scene that has it.
+    start = html.index("var categories = ") + len("var categories = ")
+    categories, _ = json.JSONDecoder().raw_decode(html, start)
+    index = {(category, scene): sorted(Path(f).name for f in files)
+             for category, scenes in categories.items() for scene, files in scenes.items()}
+    shapes = [f"shape_{p}.png" for p in sorted(TINY["scenes"]["alice"]["postures"])]
+    assert index == {
+        ("Shapes", "alice"): shapes, ("Shapes", "fwd"): ["shape_standing.png"],
+        ("Identification", "alice"): ["convergence.png", "parameters.csv"],
+        ("Identification", "syn"): ["convergence.png", "parameter_errors.csv"],
+        ("Sensitivity", "alice"): ["sensitivity.png"], ("Sensitivity", "syn"): ["sensitivity.png"],
+        ("Solver diagnostics", "alice"): ["diagnostics.csv"], ("Solver diagnostics", "fwd"): ["diagnostics.csv"],
+        ("Error against run time", "syn"): ["error_vs_runtime.png"],
+        ("Stability", "grid"): ["stability.csv", "stability_map.png"]}
 
 
 def test_a_scene_plans_only_what_it_needs(tmp_path):
     """Dry runs from an empty folder: a patient scene without sensitivity plans no solve,
     no truth and no sensitivity, and shapes only its measured postures (one at its own
-    angle); a forward scene
-    solves only its listed postures; a synthetic truth solves only its scene's postures."""
+    angle); a forward scene solves only its listed postures; a synthetic truth solves only
+    its scene's postures."""
     from breastcore.workflow_config import validate_config
     from breastcore.workflow_plan import Plan
     postures = dict(TINY["scenes"]["alice"]["postures"])

@@ -28,9 +28,28 @@ def register(sub):
     q.set_defaults(run=run_list)
 
 
+def _labels(ds, dim, limit=40):
+    """Names of the entries along ``dim``: its text coordinate, or the text variables along it
+    (e.g. ``method/mesh`` per run); None for numeric or long dimensions."""
+    columns = [ds[name].values for name in ds.variables
+               if ds[name].dims == (dim,) and ds[name].dtype.kind in "UOS"
+               and not str(ds[name].values[0]).endswith(".nc")]          # file paths name nothing
+    if not columns or ds.sizes[dim] > limit:
+        return None
+    if dim in ds.coords and ds[dim].dtype.kind in "UOS":
+        columns = [ds[dim].values]
+    return ["/".join(str(c[i]) for c in columns) for i in range(ds.sizes[dim])]
+
+
 def describe(ds) -> str:
-    """Multi-line summary: what the dataset is, its parameters, key numbers and provenance."""
+    """Multi-line summary: what the dataset is, its parameters, key numbers and provenance.
+
+    Key numbers are printed to 4 significant digits, each with its units and the names of
+    the entries along its dimensions.
+    """
     import numpy as np
+
+    from ..parameters import PARAMETER_INFO
 
     a = ds.attrs
     lines = [f"{a.get('title', 'dataset')}  [stage: {a.get('stage', '?')}]"]
@@ -38,14 +57,22 @@ def describe(ds) -> str:
     lines.append(f"  dimensions: {dims}")
     params = json.loads(a.get("parameters", "{}") or "{}")
     if params:
-        lines.append("  parameters: " + ", ".join(f"{k}={v:.6g}" if isinstance(v, (int, float)) else f"{k}={v}"
-                                                  for k, v in params.items()))
+        def shown(k, v):
+            units = f" {PARAMETER_INFO[k].units}" if k in PARAMETER_INFO else ""
+            return f"{k}={v:.6g}{units}" if isinstance(v, (int, float)) else f"{k}={v}"
+        lines.append("  parameters: " + ", ".join(shown(k, v) for k, v in params.items()))
     for name in _KEY_NUMBERS.get(a.get("stage"), []):
         if name in ds:
             var = ds[name]
-            values = np.array2string(np.asarray(var.values), precision=4, threshold=40, max_line_width=100)
-            values = values.replace("\n", "\n" + " " * 6)
-            lines.append(f"  {name} [{var.attrs.get('units', '')}] ({var.attrs.get('long_name', '')}):\n      {values}")
+            lines.append(f"  {name} [{var.attrs.get('units', '')}] ({var.attrs.get('long_name', '')})"
+                         + (f", by {' x '.join(var.dims)}" if var.dims else "") + ":")
+            for dim in var.dims:
+                labels = _labels(ds, dim)
+                if labels:
+                    lines.append(f"      {dim}: {', '.join(labels)}")
+            values = np.array2string(np.asarray(var.values), threshold=200, max_line_width=100,
+                                     formatter={"float_kind": "{:.4g}".format})
+            lines.append("      " + values.replace("\n", "\n      "))
     for key in ("success", "message", "mesh_level", "solver", "method", "measurement_set", "outcome_counts",
                 "guess_outcome_counts", "scene", "source"):
         if key in a:
