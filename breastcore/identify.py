@@ -163,9 +163,16 @@ def identify(mm, target, initial, options=IdentificationOptions(), weights=None)
     ------
     SolveError
         Only if the forward solve fails at the initial guess.
+    ValueError
+        If fewer measurements carry weight than there are parameters (e.g. one posture's
+        five for six): Λ would not be determined and its intervals would be meaningless.
     """
     target = np.asarray(target, float)
     w = np.ones_like(target) if weights is None else np.asarray(weights, float)
+    informative = int(np.count_nonzero(w > 0))
+    if informative < len(initial):
+        raise ValueError(f"{informative} weighted measurements cannot determine {len(initial)} parameters; "
+                         f"measure at least two postures")
     sqrt_w = np.sqrt(w)
     result = IdentificationResult(False, "", np.asarray(initial, float))
     tic = time.perf_counter()

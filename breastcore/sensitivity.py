@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import logging
+
 import numpy as np
 import xarray as xr
 
@@ -10,6 +12,8 @@ from .identify import identify
 from .parallel import fork_map
 from .parameters import IDENTIFIED
 from .uncertainty import conditioning
+
+log = logging.getLogger(__name__)
 
 
 def finite_sensitivity(mm, target, estimate, options, delta=0.10, processes=1):
@@ -40,6 +44,8 @@ def finite_sensitivity(mm, target, estimate, options, delta=0.10, processes=1):
 
     def reidentify(task):
         i, end = divmod(task, 2)
+        log.info("finite sensitivity: re-identification %d of %d (measurement %d × %g)", task + 1, 2 * n, i,
+                 (1.0 + delta, 1.0 - delta)[end])
         perturbed = values.copy().ravel()
         perturbed[i] *= (1.0 + delta, 1.0 - delta)[end]
         mm.remember(anchor, estimate)

@@ -16,6 +16,7 @@ import jsonschema
 import yaml
 
 from .mesh import LEVEL_MESH_SIZE
+from .parameters import IDENTIFIED
 from .postures import PAPER_POSTURES, PostureError, parse_posture
 
 SCENE_KINDS = ("synthetic", "patient", "forward", "stability")
@@ -206,6 +207,9 @@ def validate_config(config, schema_path) -> dict:
                 missing = [q for q in ("volume", "area", "height", "frontal_depth", "back_depth") if q not in values]
                 if missing:
                     raise ConfigError(f"config key {where}.postures.{posture}: missing {', '.join(missing)}")
+            if 5 * len(scene["postures"]) < len(IDENTIFIED):
+                raise ConfigError(f"config key {where}.postures: one posture gives 5 measurements for "
+                                  f"{len(IDENTIFIED)} parameters; measure at least two postures")
             _cap(scene["initial"], f"{where}.initial")
             _fixed_iterations(scene, [scene["identification"]["method"]], where)
         elif kind == "stability":

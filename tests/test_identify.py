@@ -306,3 +306,16 @@ def test_branch_check_is_skipped_when_the_estimate_was_solved_cold(monkeypatch):
                                       lambda *a: None, lambda *a: None)
         assert calls == expected_calls
         assert (result.branch_drift == 0.0) == cold
+
+
+def test_fewer_weighted_measurements_than_parameters_is_refused_before_any_solve():
+    mm = LinearModel()
+    target = mm.measure(mm.solve(TRUTH))
+    mm.solves = 0
+    one_posture = np.zeros_like(target)
+    one_posture[0] = 1.0                                    # five measurements for six parameters
+    with pytest.raises(ValueError, match="5 weighted measurements cannot determine 6 parameters"):
+        identify(mm, target, TRUTH * 1.1, IdentificationOptions(), weights=one_posture)
+    assert mm.solves == 0
+    one_posture[1, 0] = 1.0                                 # six: determined, and it runs
+    assert identify(mm, target, TRUTH * 1.1, IdentificationOptions(max_iterations=3), weights=one_posture).cost

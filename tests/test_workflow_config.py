@@ -86,6 +86,12 @@ def test_scene_without_measurements():
     assert "missing height" in msg
 
 
+def test_patient_with_one_posture_is_refused():
+    msg = _bad(lambda c: c["scenes"]["example_patient"].update(
+        postures={"fours": c["scenes"]["example_patient"]["postures"]["fours"]}))
+    assert msg.startswith("config key scenes.example_patient.postures:") and "at least two postures" in msg
+
+
 def test_non_finite_number():
     msg = _bad(lambda c: c["constants"].update(chassaignac=float("nan")))
     assert "constants.chassaignac" in msg and "finite" in msg
