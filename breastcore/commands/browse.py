@@ -31,10 +31,12 @@ def register(sub):
 def _labels(ds, dim, limit=40):
     """Names of the entries along ``dim``: its text coordinate, or the text variables along it
     (e.g. ``method/mesh`` per run); None for numeric or long dimensions."""
+    if not 0 < ds.sizes[dim] <= limit:
+        return None
     columns = [ds[name].values for name in ds.variables
                if ds[name].dims == (dim,) and ds[name].dtype.kind in "UOS"
                and not str(ds[name].values[0]).endswith(".nc")]          # file paths name nothing
-    if not columns or ds.sizes[dim] > limit:
+    if not columns:
         return None
     if dim in ds.coords and ds[dim].dtype.kind in "UOS":
         columns = [ds[dim].values]
