@@ -259,8 +259,11 @@ def test_list_and_show_browse_every_dataset(workdir, capsys):
     postures = re.search(r"posture: (.*)\n", measured).group(1).split(", ")
     assert sorted(postures) == sorted(TINY["scenes"]["alice"]["postures"])
     assert "quantity: volume, area, height, frontal_depth, back_depth" in measured
-    for scene in ("fwd", "syn"):                       # the default Λ̄ is the forward and the truth parameters
-        assert "parameters: R=0.0562 m, H=0.05 m, lambda_breast=1000 Pa" in shown[f"scenes/{scene}/summary.nc"]
+    from breastcore.parameters import Parameters
+    default = Parameters()                             # the default Λ̄ is the forward and the truth parameters
+    expected = f"parameters: R={default.R:.6g} m, H={default.H:.6g} m, lambda_breast={default.lambda_breast:.6g} Pa"
+    for scene in ("fwd", "syn"):
+        assert expected in shown[f"scenes/{scene}/summary.nc"]
     assert "run: lm/coarse, paper/coarse" in shown["scenes/syn/summary.nc"]
     with xr.open_dataset(workdir / "results" / identification) as ds:
         assert f"parameters: R={float(ds['estimate'][0]):.6g} m" in shown["scenes/alice/summary.nc"]
