@@ -10,7 +10,24 @@ from __future__ import annotations
 __version__ = "0.1.0"
 
 
-def source_hash(*entries: str) -> str:
+#: The workflow's compute stages: one module each in :mod:`breastcore.stages`.
+STAGES = ("mesh", "solve", "measure", "identify", "sensitivity", "stability", "extreme")
+
+
+def stage_hash(stage: str, root=None) -> str:
+    """:func:`source_hash` of what the script of compute stage ``stage`` imports.
+
+    The stage module (``breastcore.stages.<stage>``) with the modules it imports, and
+    ``logs`` and ``keys``, which every stage script imports. An edit of
+    ``stability.py`` changes the hash of the stability stage only; one of
+    ``identify.py`` those of the stages that import it (identify, sensitivity, extreme).
+    """
+    if stage not in STAGES:
+        raise ValueError(f"unknown stage {stage!r}; stages: {', '.join(STAGES)}")
+    return source_hash(f"stages.{stage}", "logs", "keys", root=root)
+
+
+def source_hash(*entries: str, root=None) -> str:
     """SHA-256 (first 12 hex digits) of the package's code.
 
     Snakemake does not see edits in imported modules; rules take this hash as a
@@ -23,11 +40,13 @@ def source_hash(*entries: str) -> str:
         import, directly or not, plus ``__init__``. The compute rules use it so that
         an edit of the report code does not rerun the solves. Without entries:
         every ``.py`` file.
+    root : path, optional
+        The package folder to hash (default: this package's; tests hash edited copies).
     """
     import hashlib
     from pathlib import Path
 
-    root = Path(__file__).parent
+    root = Path(__file__).parent if root is None else Path(root)
     paths = _imported_modules(root, entries) if entries else sorted(root.rglob("*.py"))
     digest = hashlib.sha256()
     for path in paths:
@@ -66,10 +85,10 @@ def _imported_modules(root, entries):
             return []
         return [base] + [base + [a.name] for a in node.names]
 
-    seen, todo = set(), [[e] for e in entries]
+    seen, todo = set(), [e.split(".") for e in entries]
     for parts in todo:
         if path_of(parts) is None:
-            raise ValueError(f"no module {'.'.join(parts)!r} in {root}")
+            raise ValueError(f"no module {'.'.join(parts)!r} in the package")
     while todo:
         parts = todo.pop()
         for depth in range(len(parts) + 1):                  # the packages' __init__ run first

@@ -124,10 +124,6 @@ def parameter_variables(params: Parameters) -> dict:
     return out
 
 
-def parameters_from_dataset(ds: xr.Dataset) -> Parameters:
-    return Parameters(**{name: float(ds[name].values) for name in PARAMETER_INFO if name in ds})
-
-
 def open_dataset(path) -> xr.Dataset:
     """Load a dataset fully into memory and close the file (so it can be replaced)."""
     with xr.open_dataset(path) as ds:

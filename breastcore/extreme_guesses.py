@@ -17,11 +17,12 @@ import numpy as np
 import xarray as xr
 
 from .datasets import _var, provenance
-from .forward import ForwardModel, SolveError, SolverOptions
+from .forward import SolveError, SolverOptions
 from .identify import IdentificationOptions, identify
 from .observation import MeasurementModel
 from .parameters import IDENTIFIED, Parameters
 from .postures import paper_postures
+from .problem import ProblemSpec
 
 log = logging.getLogger(__name__)
 
@@ -67,7 +68,8 @@ def run_guess(mm, target, truth, start, options=IdentificationOptions()):
     return ("wrong_minimum" if result.success else "not_converged"), record, result.message
 
 
-def extreme_guess_dataset(labels, starts, outcomes, records, messages, level, config_hash=None) -> xr.Dataset:
+def extreme_guess_dataset(labels, starts, outcomes, records, messages, level, problem, config_hash=None) -> xr.Dataset:
+    """The outcome of every guess; ``problem`` (the truth Λ̄, constants, solver, options) is stored as ``problem``."""
     units = {"iterations": ("1", "accepted identification iterations"), "cost": ("1", "final cost E"),
              "max_error": ("1", "largest |estimate / truth − 1| over the six parameters"),
              "wall_time": ("s", "wall time of the identification")}
@@ -80,25 +82,27 @@ def extreme_guess_dataset(labels, starts, outcomes, records, messages, level, co
     coords = {"parameter": _var(("parameter",), np.array(IDENTIFIED), "1", "identified parameter")}
     counts = {o: int(sum(x == o for x in outcomes)) for o in OUTCOMES}
     ds = xr.Dataset(data, coords=coords)
-    ds.attrs = provenance("extreme", Parameters(), config_hash, mesh_level=level, guess_outcome_counts=counts,
-                          title=f"identification from extreme guesses on the {level} mesh")
+    ds.attrs = provenance("extreme", problem.parameters, config_hash, mesh_level=level, guess_outcome_counts=counts,
+                          title=f"identification from extreme guesses on the {level} mesh", **problem.attrs())
     return ds
 
 
 def extreme_guess_study(spec, mesh, config_hash=None) -> xr.Dataset:
     """Run every guess of a workflow job ``spec`` (``factors``, ``level``, ``constants``, ``solver``)."""
-    base = Parameters(**spec["constants"])
-    model = ForwardModel(mesh, SolverOptions(**spec["solver"]))
-    truth = np.array(base.identified())
-    truth_model = MeasurementModel(model, base, paper_postures())
+    problem = ProblemSpec(parameters=Parameters(**spec["constants"]), solver=SolverOptions(**spec["solver"]),
+                          postures=paper_postures(), measurement_set="paper15",
+                          identification=IdentificationOptions(**spec["identification"]))
+    model = problem.forward_model(mesh)
+    truth = np.array(problem.parameters.identified())
+    truth_model = MeasurementModel.from_problem(problem, model=model)
     target = truth_model.measure(truth_model.solve(truth, remember=False, cold=True))
-    options = IdentificationOptions(**spec["identification"])
+    options = problem.identification
     labels, starts, runs = [], [], []
     for label, scale in extreme_guesses(spec["factors"]):
-        mm = MeasurementModel(model, base, paper_postures())   # no warm starts carried between runs
+        mm = MeasurementModel.from_problem(problem, model=model)   # no warm starts carried between runs
         runs.append(run_guess(mm, target, truth, truth * scale, options))
         log.info("guess %s: %s (%s)", label, runs[-1][0], runs[-1][2])
         labels.append(label)
         starts.append(truth * scale)
     outcomes, records, messages = (list(column) for column in zip(*runs))
-    return extreme_guess_dataset(labels, starts, outcomes, records, messages, spec["level"], config_hash)
+    return extreme_guess_dataset(labels, starts, outcomes, records, messages, spec["level"], problem, config_hash)

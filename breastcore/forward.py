@@ -24,7 +24,7 @@ from .mesh import CapMesh, refold
 from .parameters import Parameters
 from .postures import Posture
 from .saddle import escape_saddle
-from .solver import Factorization, newton
+from .solver import Factorization, hessian_inertia, newton
 
 log = logging.getLogger(__name__)
 
@@ -148,10 +148,12 @@ class PostureSolution:
 
     @property
     def negative_eigenvalues(self) -> int:
-        """Negative eigenvalues of the exact Hessian at the solution (``-1``: unknown).
+        """Negative eigenvalues of the exact Hessian at the returned position (``-1``: unknown, no PARDISO).
 
-        Zero at a stable equilibrium (a local minimum of ``J_h``); a saddle found by
-        Newton is left by :func:`~breastcore.saddle.escape_saddle` before returning.
+        Computed at the solution itself, for Newton and CG solves, cold or warm. Zero
+        at a stable equilibrium (a local minimum of ``J_h``); a saddle is left by
+        :func:`~breastcore.saddle.escape_saddle` before returning, and > 0 only where
+        that escape keeps it (a neutral direction, or a failed last round).
         """
         return int(self.extra.get("negative_pivots", -1))
 
@@ -297,10 +299,19 @@ class ForwardModel:
         return outcomes
 
 
+def _cg_minimiser(model):
+    """The CG baseline with :func:`~breastcore.solver.newton`'s call signature (``avoid_saddles`` has no
+    effect: CG follows the gradient and is not drawn to saddles as Newton's step is)."""
+    from .cg import conjugate_gradient
+
+    def minimise(problem, z, tolerance, max_iterations=None, avoid_saddles=False):
+        return conjugate_gradient(problem, z, tolerance, model.options.cg_max_iterations)
+    return minimise
+
+
 def _minimise(model, problem, z, tolerance):
     if model.options.method == "cg":
-        from .cg import conjugate_gradient
-        return conjugate_gradient(problem, z, tolerance, model.options.cg_max_iterations)
+        return _cg_minimiser(model)(problem, z, tolerance)
     result = newton(problem, z, tolerance, model.options.max_iterations)
     if result.success and result.negative_pivots:                  # an unstable equilibrium: leave it
         return escape_saddle(problem, result, model.options.max_iterations)
@@ -371,7 +382,7 @@ def solve_posture(model: ForwardModel, params: Parameters, posture: Posture, sta
             iterations += result.iterations
             steps += 1
             if result.success:
-                return _finish(problem, result, posture, iterations, steps, tic)
+                return _finish(model, problem, result, posture, iterations, steps, tic)
         t, x = 1.0, start
         if not np.isfinite(model.problem(params, posture, 1.0, delta_start).value(z)):
             t, x = 0.0, reference
@@ -397,7 +408,7 @@ def solve_posture(model: ForwardModel, params: Parameters, posture: Posture, sta
                   result.message, result.iterations)
         if result.success:
             if final:
-                return _finish(problem, result, posture, iterations, steps, tic)
+                return _finish(model, problem, result, posture, iterations, steps, tic)
             t, x, x_delta = t_next, problem.full(result.x), delta
             dt = min(2.0 * dt, 1.0 if t < 1.0 else max_delta_step)
             continue
@@ -464,13 +475,36 @@ def _smoothing_predictor(model, problem, x, reference, delta_old, delta_new, z):
     return z_pred if np.isfinite(problem.value(z_pred)) else z
 
 
-def _finish(problem, result, posture, iterations, steps, tic):
+def _settle(model, problem, result):
+    """``result`` with the inertia of the exact Hessian at its own point, a saddle left first.
+
+    Newton's inertia comes from the Hessian it factorised before its last step, and a
+    CG solve or a warm solve that needs no iteration factorises none: the inertia of
+    the returned equilibrium is computed here (one factorisation, unless the saddle
+    escape already did it). A saddle found so is left by the solve's own method
+    (:func:`~breastcore.saddle.escape_saddle`), for Newton and CG alike.
+    """
+    if not result.inertia_at_x:
+        result = dataclasses.replace(result, negative_pivots=hessian_inertia(problem, result.x), inertia_at_x=True)
+    if not result.negative_pivots:
+        return result
+    minimise = _cg_minimiser(model) if model.options.method == "cg" else newton
+    escaped = escape_saddle(problem, result, model.options.max_iterations, minimise=minimise)
+    if not escaped.inertia_at_x:
+        escaped = dataclasses.replace(escaped, negative_pivots=hessian_inertia(problem, escaped.x), inertia_at_x=True)
+    return escaped
+
+
+def _finish(model, problem, result, posture, iterations, steps, tic):
+    extra_iterations = result.iterations
+    result = _settle(model, problem, result)
+    iterations += result.iterations - extra_iterations
     x = problem.full(result.x)
     min_det, stretch = _diagnostics(problem, x)
     log.info("%s: converged in %d iterations (%d continuation steps), |g|=%.3e N", posture.name,
              iterations, steps, result.gradient_norm)
     extra = {}
-    if getattr(result, "negative_pivots", None) is not None:
-        extra["negative_pivots"] = int(result.negative_pivots)         # > 0: a saddle (see NewtonResult)
+    if result.negative_pivots is not None:
+        extra["negative_pivots"] = int(result.negative_pivots)         # at x; > 0: a saddle kept (see _settle)
     return PostureSolution(posture, x, True, iterations, steps, result.gradient_norm, result.tolerance,
                            result.energy, min_det, stretch, time.perf_counter() - tic, extra)

@@ -15,9 +15,17 @@ from .uncertainty import Z95, conditioning, intervals, log_covariance
 _PARAM_UNITS = " ".join(PARAMETER_INFO[p].units for p in IDENTIFIED)
 
 
-def identification_dataset(result, mm, target, options, *, initial, truth=None, mesh_level="custom",
+def identification_dataset(result, mm, target, problem, *, initial, truth=None, mesh_level="custom",
                            config_hash=None) -> xr.Dataset:
-    """Build the dataset of one :class:`~breastcore.identify.IdentificationResult`."""
+    """Build the dataset of one :class:`~breastcore.identify.IdentificationResult`.
+
+    ``problem`` is the :class:`~breastcore.problem.ProblemSpec` that built ``mm``; it is
+    stored in the attribute ``problem``, and the model's own mesh nodes in
+    ``model_reference_position``, so that a later stage (the finite sensitivity)
+    rebuilds exactly this problem.
+    """
+    problem.check_model(mm)
+    options = problem.identification
     estimate = np.asarray(result.estimate, float)
     J = result.jacobian.reshape(-1, len(IDENTIFIED))
     weights = np.asarray(target.weights, float).ravel()
@@ -62,6 +70,9 @@ def identification_dataset(result, mm, target, options, *, initial, truth=None, 
     params = mm.params(estimate)
     shown = refold(mm.model.map.mesh_at(params.R, params.H), params.fold_angle)
     data.update(mesh_variables(shown))
+    data["model_reference_position"] = _var(("node", "xyz"), mm.model.mesh.nodes, "m",
+                                            "gravity-free node position of the identification's mesh at "
+                                            "model_mesh R, H (the map moves it to each Λ)")
     coords = mesh_coords()
     coords.update({
         "parameter": _var(("parameter",), np.array(IDENTIFIED), "1", "identified parameter"),
@@ -80,6 +91,6 @@ def identification_dataset(result, mm, target, options, *, initial, truth=None, 
                           failed_solves=result.failed_solves, jacobian_rank=rank, condition_number=cond,
                           branch_restarts=result.branch_restarts, branch_drift=result.branch_drift,
                           iterations=result.iterations,
-                          options={k: getattr(options, k) for k in options.__dataclass_fields__},
-                          title="breastcore parameter identification")
+                          model_mesh={"R": mm.model.mesh.R, "H": mm.model.mesh.H},
+                          title="breastcore parameter identification", **problem.attrs())
     return ds

@@ -29,6 +29,7 @@ import numpy as np
 from scipy.optimize import least_squares
 
 from .forward import SolveError
+from .identification_options import IdentificationOptions
 from .parameters import ParameterError
 
 log = logging.getLogger(__name__)
@@ -37,74 +38,6 @@ log = logging.getLogger(__name__)
 FAILED_RESIDUAL = 1e3
 #: LM's cap on residual evaluations (trial points, accepted or not) per allowed iteration.
 MAX_EVALUATIONS_PER_ITERATION = 3
-
-
-@dataclass(frozen=True)
-class IdentificationOptions:
-    """Settings of :func:`identify`; defaults documented in ``docs/identification.md``.
-
-    Attributes
-    ----------
-    method : {"lm", "gauss-newton"}
-    jacobian : {"implicit", "fd"}
-    fd_step : float
-        Relative step ε of the finite-difference Jacobian.
-    cost_tol : float
-        Gauss–Newton stops when the cost decrease is below ``cost_tol`` (ε_m).
-    cost_rtol : float
-        Both methods: stop, converged, after the first accepted step that lowers
-        the cost by less than ``cost_rtol`` times the cost before it,
-        ``E(Λⁿ) − E(Λⁿ⁺¹) < cost_rtol · E(Λⁿ)``: the paper's ε_m test made
-        relative. 0 (default) turns it off. Unlike ``ftol``, it asks nothing of
-        the step's agreement with the quadratic model, so a run stops exactly
-        where its recorded cost history first meets it: a run with
-        ``cost_rtol`` is the prefix of the same run without it.
-    xtol, ftol, gtol : float
-        ``least_squares`` stopping tolerances (LM).
-    max_iterations : int
-        Accepted steps (iterations) of the whole identification, branch restarts
-        included: the paper reports its results "after 25 iterations". LM also
-        stops after ``MAX_EVALUATIONS_PER_ITERATION × max_iterations`` residual
-        evaluations (trial points, rejected ones included).
-    noise : float
-        Relative 1σ measurement noise of the uncertainty model (0.10 = 10 %).
-    fixed_iterations : bool
-        Gauss–Newton only: run exactly ``max_iterations`` iterations without the
-        ε_m test, as the paper's parameter-evolution runs do ("after 25
-        iterations"). The result is then never labelled converged.
-    initial_trust_radius : float
-        LM only: the first trust-region radius, in the log/logit variables (0.5:
-        moduli scaled by at most e^0.5 ≈ 1.65 in the first trial step). scipy's
-        ``trf`` would otherwise start at ‖z₀‖ ≈ 15, a unit-dependent radius whose
-        first trial steps scale moduli by up to e^±10; from ±60 % starts on the
-        coarse mesh this recovered Λ̄ in 11 of 20 starts, against 20 of 20 with 0.5
-        (``benchmarks/study_identification.py crime``).
-    """
-
-    method: str = "lm"
-    jacobian: str = "implicit"
-    fd_step: float = 1e-4
-    cost_tol: float = 1e-14
-    cost_rtol: float = 0.0
-    xtol: float = 1e-8
-    ftol: float = 1e-8
-    gtol: float = 1e-10
-    max_iterations: int = 50
-    noise: float = 0.10
-    initial_trust_radius: float = 0.5
-    fixed_iterations: bool = False
-
-    def __post_init__(self):
-        if self.method not in ("lm", "gauss-newton"):
-            raise ValueError(f"method must be 'lm' or 'gauss-newton', got {self.method!r}")
-        if self.jacobian not in ("implicit", "fd"):
-            raise ValueError(f"jacobian must be 'implicit' or 'fd', got {self.jacobian!r}")
-        if not (self.fd_step > 0 and self.noise > 0 and self.max_iterations > 0 and self.initial_trust_radius > 0):
-            raise ValueError("fd_step, noise, max_iterations and initial_trust_radius must be > 0")
-        if not 0 <= self.cost_rtol < 1:
-            raise ValueError(f"cost_rtol must be in [0, 1), got {self.cost_rtol!r}")
-        if self.fixed_iterations and self.method != "gauss-newton":
-            raise ValueError("fixed_iterations applies to method 'gauss-newton' only")
 
 
 @dataclass
@@ -167,6 +100,9 @@ def identify(mm, target, initial, options=IdentificationOptions(), weights=None)
         If fewer measurements carry weight than there are parameters (e.g. one posture's
         five for six): Λ would not be determined and its intervals would be meaningless.
     """
+    if getattr(mm, "warm_radius", options.warm_radius) != options.warm_radius:
+        raise ValueError(f"the measurement model's warm_radius ({mm.warm_radius}) is not the options' "
+                         f"({options.warm_radius}): build it with ProblemSpec.measurement_model")
     target = np.asarray(target, float)
     w = np.ones_like(target) if weights is None else np.asarray(weights, float)
     informative = int(np.count_nonzero(w > 0))

@@ -63,6 +63,22 @@ class MeasurementModel:
         self._start_values = None
         self.solves = 0
 
+    @classmethod
+    def from_problem(cls, problem, mesh=None, *, model=None, processes=1) -> "MeasurementModel":
+        """``Λ ↦ M(Λ)`` of a :class:`~breastcore.problem.ProblemSpec` on ``mesh`` (or an existing ``model``).
+
+        Constants, solver options, postures, measurement set and warm-start radius all
+        come from ``problem``; ``processes`` only changes how the postures are run.
+        """
+        if problem.measurement_set is None:
+            raise ValueError("this problem has no measurement set: it defines no M(Λ)")
+        if model is None:
+            model = problem.forward_model(mesh)
+        elif model.options != problem.solver:
+            raise ValueError("the forward model's solver options are not the problem's")
+        return cls(model, problem.parameters, problem.postures, problem.measurement_set,
+                   warm_radius=problem.warm_radius(), processes=processes)
+
     def params(self, values) -> Parameters:
         return self.base.with_identified(values)
 

@@ -118,7 +118,7 @@ def _fix_signs(vectors):
     return vectors * np.sign(vectors[rows, np.arange(vectors.shape[1])])
 
 
-def escape_saddle(problem, result, max_iterations=100, max_rounds=4):
+def escape_saddle(problem, result, max_iterations=100, max_rounds=4, minimise=None):
     """Minimise again from a saddle ``result`` of :func:`~breastcore.solver.newton`.
 
     Parameters
@@ -132,6 +132,10 @@ def escape_saddle(problem, result, max_iterations=100, max_rounds=4):
     max_rounds : int
         Perturb-and-minimise rounds before giving up (the last result is then
         returned with its ``negative_pivots`` still > 0, so callers can tell).
+    minimise : callable
+        ``minimise(problem, z0, tolerance, max_iterations, avoid_saddles)`` returning a
+        NewtonResult: :func:`~breastcore.solver.newton` (None, the default), or the CG baseline for
+        a CG solve, so that a saddle is left by the solve's own method.
 
     Returns
     -------
@@ -160,6 +164,7 @@ def escape_saddle(problem, result, max_iterations=100, max_rounds=4):
     two factorisations per iteration: on ultra-thin standing the plain rounds
     reach the minimum in 11 iterations where ``avoid_saddles`` took 20.
     """
+    minimise = minimise or newton
     pattern = getattr(problem, "pattern", None)
     iterations = result.iterations
     length = START_FRACTION * problem.length_scale
@@ -185,13 +190,13 @@ def escape_saddle(problem, result, max_iterations=100, max_rounds=4):
         log.info("saddle (κ_min = %.3e N/m, inertia %d): moved %.3e m, minimising again", values.min(), inertia,
                  alpha)
         last_round = round_ == max_rounds - 1
-        result = newton(problem, moved, result.tolerance,
-                        min(max_iterations, AVOID_ITERATIONS) if last_round else max_iterations,
-                        avoid_saddles=last_round)
+        result = minimise(problem, moved, result.tolerance,
+                          min(max_iterations, AVOID_ITERATIONS) if last_round else max_iterations, last_round)
         iterations += result.iterations
         if result.success:
             K = problem.hessian(result.x)          # its inertia now, its eigenvectors next round
-            result = converged = _with(result, negative_pivots=Factorization(K, pattern).negative_pivots)
+            result = converged = _with(result, negative_pivots=Factorization(K, pattern).negative_pivots,
+                                       inertia_at_x=True)
     if not result.success:
         log.warning("saddle escape failed (%s); returning the equilibrium reached before it, a saddle with "
                     "%d negative eigenvalues", result.message, converged.negative_pivots)

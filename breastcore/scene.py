@@ -51,6 +51,9 @@ def synthetic_summary(runs, paths, name, config_hash=None, tables=(), sensitivit
         "final_measurement_error": _var(("run", "posture", "quantity"),
                                         np.array([ds["measurement_error"].values[-1] for ds in rows]), "1",
                                         "relative measurement error M(Λ̂)/M̄ − 1 at the estimate"),
+        "relative_error_history": _var(("run", "iteration", "parameter"), _histories(rows), "1",
+                                       "Λ/truth − 1 per recorded iteration (0 = initial guess); NaN after the "
+                                       "run's last iteration"),
     }
     coords = {"parameter": _var(("parameter",), np.array(IDENTIFIED), "1", "identified parameter"),
               "identification": _var(("run",), np.array(paths), "1", "identification dataset"),
@@ -75,6 +78,15 @@ def synthetic_summary(runs, paths, name, config_hash=None, tables=(), sensitivit
                           paper_table=paper_table,
                           title=f"synthetic identification study {name}", **extra)
     return ds
+
+
+def _histories(rows):
+    """``(run, iteration, parameter)`` array of ``Λ/truth − 1`` per recorded iteration, NaN-padded."""
+    length = max(ds.sizes["iteration"] for ds in rows)
+    out = np.full((len(rows), length, len(IDENTIFIED)), np.nan)
+    for i, ds in enumerate(rows):
+        out[i, :ds.sizes["iteration"]] = ds["parameters"].values / ds["truth"].values - 1.0
+    return out
 
 
 def discretisation_error(truth, level_solutions, measurement_set):

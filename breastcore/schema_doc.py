@@ -34,6 +34,16 @@ summary's `datasets` attribute (JSON) lists the stage datasets the scene is comp
 paths relative to the results folder; `breastcore list` uses it to name the scenes that each
 shared mesh, solve or identification serves.
 
+The `problem` attribute (JSON, `breastcore.problem.ProblemSpec`) of the `solve`, `measure`
+(synthetic data only), `identify`, `sensitivity`, `stability` and `extreme` datasets is the
+problem they were computed with: `parameters` (Λ and the constants ρ, g, c, δ, t_s, θ_D; an
+identification's initial guess), `solver` (every `SolverOptions` field), `postures` (name and
+angle), `measurement_set` and `identification` (every `IdentificationOptions` field, the
+warm-start radius included; null where nothing is identified). Later stages rebuild their
+model from it and from nothing else: a sensitivity re-identifies exactly the problem of its
+identification, on the mesh the identification dataset keeps in `model_reference_position`.
+Reading a spec with a missing or unknown field is an error, never a default.
+
 This page is generated from the datasets of the end-to-end test workflow of
 `tests/test_workflow.py` (`TINY`: every stage and scene kind; its synthetic scene has
 `sensitivity: both` and `tables: [levels]`, so that the finite matrices and the

@@ -11,6 +11,7 @@ from .datasets import _var, provenance
 from .identify import identify
 from .parallel import fork_map
 from .parameters import IDENTIFIED
+from .problem import ProblemSpec
 from .uncertainty import conditioning
 
 log = logging.getLogger(__name__)
@@ -70,7 +71,11 @@ def finite_sensitivity(mm, target, estimate, options, delta=0.10, processes=1):
 
 def sensitivity_dataset(identification: xr.Dataset, finite, linear, failures, delta, config_hash=None,
                         limited=0):
-    """Both matrices, their difference, rank and condition number."""
+    """Both matrices, their difference, rank and condition number.
+
+    The identification's problem spec is carried over (attribute ``problem``): the
+    finite matrix was computed by re-identifying exactly that problem.
+    """
     postures = identification["posture"].values
     quantities = identification["quantity"].values
     labels = np.array([f"{p}:{q}" for p in postures for q in quantities])
@@ -95,5 +100,6 @@ def sensitivity_dataset(identification: xr.Dataset, finite, linear, failures, de
     }
     ds = xr.Dataset(data, coords=coords)
     ds.attrs = provenance("sensitivity", dict(zip(IDENTIFIED, identification["estimate"].values.tolist())),
-                          config_hash, title="breastcore sensitivity of Λ to the measurements", **attrs)
+                          config_hash, title="breastcore sensitivity of Λ to the measurements",
+                          **ProblemSpec.from_dataset(identification).attrs(), **attrs)
     return ds

@@ -2,15 +2,14 @@
 
 from __future__ import annotations
 
-import json
-
 import numpy as np
 import xarray as xr
 
-from .datasets import _var, mesh_coords, mesh_from_dataset, mesh_variables, parameter_variables, parameters_from_dataset, provenance
-from .forward import ForwardModel, PostureSolution, SolverOptions
+from .datasets import _var, mesh_coords, mesh_from_dataset, mesh_variables, parameter_variables, provenance
+from .forward import ForwardModel, PostureSolution
 from .parameters import Parameters
 from .postures import Posture
+from .problem import ProblemSpec
 
 #: Per-posture solver diagnostics stored in the dataset: name -> (units, long name).
 DIAGNOSTICS = {
@@ -33,10 +32,16 @@ def solve_postures(model: ForwardModel, params: Parameters, postures, starts=Non
     return [model.solve(params, p, starts.get(p.name)) for p in postures]
 
 
-def solution_dataset(mesh, params: Parameters, solutions, options: SolverOptions, *,
-                     mesh_level="custom", config_hash=None) -> xr.Dataset:
-    """The solution dataset: mesh, parameters, positions and diagnostics per posture."""
+def solution_dataset(mesh, problem: ProblemSpec, solutions, *, mesh_level="custom", config_hash=None) -> xr.Dataset:
+    """The solution dataset: mesh, parameters, positions and diagnostics per posture.
+
+    ``problem`` (its parameters, solver options and postures) is stored in the
+    attribute ``problem``; the solutions must be those of its postures, in order.
+    """
     names = [s.posture.name for s in solutions]
+    if tuple(s.posture for s in solutions) != problem.postures:
+        raise ValueError(f"solutions of postures {names} for a problem of {[p.name for p in problem.postures]}")
+    params, options = problem.parameters, problem.solver
     data = mesh_variables(mesh)
     data.update(parameter_variables(params))
     data["position"] = _var(("posture", "node", "xyz"), np.stack([s.position for s in solutions]), "m",
@@ -54,8 +59,7 @@ def solution_dataset(mesh, params: Parameters, solutions, options: SolverOptions
     coords["posture"] = _var(("posture",), np.array(names), "1", "posture name")
     ds = xr.Dataset(data, coords=coords)
     ds.attrs = provenance("solve", params, config_hash, mesh_level=mesh_level, solver=options.method,
-                          solver_options={k: getattr(options, k) for k in options.__dataclass_fields__},
-                          title="breastcore equilibrium shapes per posture")
+                          title="breastcore equilibrium shapes per posture", **problem.attrs())
     return ds
 
 
@@ -69,10 +73,10 @@ def equilibrium_residual(ds: xr.Dataset, posture: str):
     Independent of the solver's own bookkeeping: rebuilds the mesh, parameters and
     energy from the dataset and differentiates the discrete energy at ``position``.
     """
-    mesh = mesh_from_dataset(ds)
-    params = parameters_from_dataset(ds)
-    model = ForwardModel(mesh, SolverOptions(rtol=float(json.loads(ds.attrs["solver_options"])["rtol"])))
-    p = next(p for p in postures_from_dataset(ds) if p.name == posture)
+    spec = ProblemSpec.from_dataset(ds)
+    params = spec.parameters
+    model = spec.forward_model(mesh_from_dataset(ds))
+    p = next(p for p in spec.postures if p.name == posture)
     problem = model.problem(params, p)
     x = ds["position"].sel(posture=posture).values
     return float(np.linalg.norm(problem.gradient(problem.free(x)))), model.tolerance(params, p)

@@ -60,9 +60,12 @@ class NewtonResult:
     message : str
         Why it stopped.
     negative_pivots : int or None
-        Negative eigenvalues of the exact Hessian factorised at the last Newton
-        iteration (PARDISO's inertia; ``None`` if unknown). Non-zero at a
-        converged solve means the equilibrium is a saddle, not a minimum.
+        Negative eigenvalues of the exact Hessian (PARDISO's inertia; ``None`` if
+        unknown) where it was last factorised: at ``x`` if ``inertia_at_x``, else at
+        the iterate before the last step (a Newton solve factorises before it steps).
+    inertia_at_x : bool
+        Whether ``negative_pivots`` is the inertia at ``x`` itself. Non-zero
+        inertia at ``x`` means the equilibrium is a saddle, not a minimum.
     """
 
     x: np.ndarray
@@ -75,6 +78,18 @@ class NewtonResult:
     history: tuple
     message: str
     negative_pivots: int | None = None
+    inertia_at_x: bool = False
+
+
+def hessian_inertia(problem, z):
+    """Negative eigenvalues of the exact free-dof Hessian at ``z`` (None without PARDISO's inertia).
+
+    One numeric factorisation (the pattern's symbolic analysis is reused).
+    """
+    try:
+        return Factorization(problem.hessian(z), getattr(problem, "pattern", None)).negative_pivots
+    except (RuntimeError, ValueError, spla.MatrixRankWarning):     # singular: no inertia to report
+        return None
 
 
 #: Threads PARDISO may use (environment variable ``BREASTCORE_PARDISO_THREADS``, default 1).

@@ -83,7 +83,9 @@ def run_case(model: ForwardModel, case, base=Parameters()):
     return ("converged" if ok else "unverified"), record, "" if ok else f"recomputed |g| = {g:.3e} N"
 
 
-def stability_dataset(cases, outcomes, records, messages, level, config_hash=None) -> xr.Dataset:
+def stability_dataset(cases, outcomes, records, messages, level, problem, config_hash=None) -> xr.Dataset:
+    """The outcomes of a chunk of cases. ``problem``: the base problem spec (constants and
+    solver; each case's Λ, c, δ and posture are in its variables), stored as ``problem``."""
     data = {name: _var(("case",), np.array([c[name] for c in cases]), "1" if name != "posture" else "1",
                        f"grid factor {name}") for name in FACTORS}
     data["outcome"] = _var(("case",), np.array(outcomes), "1", f"one of {', '.join(OUTCOMES)}")
@@ -96,5 +98,5 @@ def stability_dataset(cases, outcomes, records, messages, level, config_hash=Non
     counts = {o: int(sum(x == o for x in outcomes)) for o in OUTCOMES}
     ds.attrs = provenance("stability", None, config_hash, mesh_level=level, outcome_counts=counts,
                           convergence_rate=counts["converged"] / max(len(cases), 1),
-                          title=f"stability grid on the {level} mesh")
+                          title=f"stability grid on the {level} mesh", **problem.attrs())
     return ds

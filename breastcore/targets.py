@@ -6,8 +6,6 @@ Units differ along ``quantity`` (m³, m², m, m, m); each quantity's unit is in 
 
 from __future__ import annotations
 
-import json
-
 import numpy as np
 import xarray as xr
 
@@ -15,12 +13,13 @@ from .datasets import LANDMARKS, _var, mesh_from_dataset, provenance
 from .measure import LONG_NAMES, QUANTITIES, UNITS, landmark_positions, measure
 from .patient import PatientMeasurements
 from .postures import Posture
+from .problem import ProblemSpec
 from .solution import postures_from_dataset
 
 _UNIT_LIST = " ".join(UNITS[q] for q in QUANTITIES)
 
 
-def measurement_dataset(target: PatientMeasurements, source: str, *, landmarks=None, truth=None,
+def measurement_dataset(target: PatientMeasurements, source: str, *, landmarks=None, problem=None,
                         config_hash=None) -> xr.Dataset:
     """Dataset of measured (or synthetic) values in SI units.
 
@@ -31,9 +30,14 @@ def measurement_dataset(target: PatientMeasurements, source: str, *, landmarks=N
         ``"patient"`` or the solution file the values were measured on.
     landmarks : (posture, landmark, xyz) array, optional
         Deformed landmark positions used by the formulas, m.
-    truth : Parameters, optional
-        The parameters that generated synthetic data (kept as an attribute).
+    problem : ProblemSpec, optional
+        The problem whose solution generated synthetic data (attribute ``problem``;
+        its parameters, the truth, also in ``parameters``). None for a patient.
     """
+    if problem is not None and (problem.measurement_set != target.measurement_set
+                                or problem.postures != tuple(target.postures)):
+        raise ValueError("the problem spec's measurement set and postures must be those of the measurements")
+    truth = None if problem is None else problem.parameters
     data = {
         "measurement": _var(("posture", "quantity"), target.values, _UNIT_LIST,
                             "measured value; units per quantity in quantity_units"),
@@ -56,7 +60,8 @@ def measurement_dataset(target: PatientMeasurements, source: str, *, landmarks=N
         coords["xyz"] = _var(("xyz",), np.array(["x", "y", "z"]), "1", "torso axis")
     ds = xr.Dataset(data, coords=coords)
     ds.attrs = provenance("measure", truth, config_hash, measurement_set=target.measurement_set, source=source,
-                          synthetic=int(truth is not None), title="breastcore measurements per posture")
+                          synthetic=int(truth is not None), title="breastcore measurements per posture",
+                          **({} if problem is None else problem.attrs()))
     return ds
 
 
@@ -69,7 +74,7 @@ def target_from_dataset(ds: xr.Dataset) -> PatientMeasurements:
 
 def truth_from_dataset(ds: xr.Dataset):
     """The generating parameters of synthetic data (dict), or None."""
-    return json.loads(ds.attrs["parameters"]) if int(ds.attrs.get("synthetic", 0)) else None
+    return ProblemSpec.from_dataset(ds).parameters.as_dict() if int(ds.attrs.get("synthetic", 0)) else None
 
 
 def measure_solution(solution: xr.Dataset, measurement_set="paper15"):

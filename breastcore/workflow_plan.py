@@ -20,18 +20,11 @@ Paths (under ``results/``)::
 
 from __future__ import annotations
 
-import hashlib
-import json
-
 import numpy as np
 
+from .keys import spec_key
 from .parameters import IDENTIFIED
 from .postures import parse_posture
-
-
-def spec_key(spec) -> str:
-    """Short stable hash of a JSON-able spec."""
-    return hashlib.sha1(json.dumps(spec, sort_keys=True).encode()).hexdigest()[:10]
 
 
 def _postures(texts):

@@ -63,17 +63,19 @@ def test_measurement_table_sets_the_papers_case_a_rows_beside_only_when_asked():
 
 
 def test_evolution_table_is_unsigned_like_the_paper_and_shows_its_row_once_per_mesh(tmp_path):
+    """Built from the summary alone: its identification files (not inputs of the rule) need not exist."""
+    from breastcore.scene import _histories
     truth = np.array([0.05, 0.04, 1000.0, 150.0, 8000.0, 1600.0])
-    paths = []
+    runs = []
     for k in range(2):
-        factors = np.ones((26, 6))
-        factors[15:, 2] = 0.9 + 0.01 * np.arange(11) * (k + 1) / 10      # λ 10 % low, drifting
-        path = tmp_path / f"run{k}.nc"
-        xr.Dataset({"parameters": (("iteration", "parameter"), truth * factors),
-                    "truth": ("parameter", truth)}).to_netcdf(path)
-        paths.append(str(path))
+        length = 26 if k == 0 else 20                                  # the second run stopped earlier
+        factors = np.ones((length, 6))
+        factors[15:, 2] = 0.9 + 0.01 * np.arange(length - 15) * (k + 1) / 10      # λ 10 % low, drifting
+        runs.append(xr.Dataset({"parameters": (("iteration", "parameter"), truth * factors),
+                                "truth": ("parameter", truth)}))
     ds = xr.Dataset({"mesh": ("run", ["thin", "thin"]), "method": ("run", ["gn", "gn"]),
-                     "identification": ("run", paths)})
+                     "identification": ("run", [str(tmp_path / "gone0.nc"), str(tmp_path / "gone1.nc")]),
+                     "relative_error_history": (("run", "iteration", "parameter"), _histories(runs))})
     table = evolution_table(ds)
     assert list(table["source"]) == ["ours, gn", "paper", "ours, gn"]
     window = 100 * (0.9 + 0.01 * np.arange(11) / 10 - 1)
@@ -81,11 +83,15 @@ def test_evolution_table_is_unsigned_like_the_paper_and_shows_its_row_once_per_m
     assert table.iloc[0]["lambda_breast sd %"] == pytest.approx(window.std(ddof=1))
     assert table.iloc[0]["R mean %"] == pytest.approx(0, abs=1e-12)
     assert table.iloc[1]["lambda_breast mean %"] == paper.EVOLUTION_MEAN["thin"]["lambda_breast"]
+    assert table.iloc[2]["iterations"] == "15–19"                    # its NaN padding is not a window
+    short = 100 * (0.9 + 0.01 * np.arange(5) * 2 / 10 - 1)
+    assert table.iloc[2]["lambda_breast mean %"] == pytest.approx(np.abs(short).mean())
 
 
 def test_discretisation_error_is_zero_against_itself_and_nan_where_a_solve_did_not_converge(tmp_path):
     from breastcore.datasets import open_dataset, write_netcdf
-    from breastcore.pipeline import run_mesh, run_solve
+    from breastcore.stages.mesh import run_mesh
+    from breastcore.stages.solve import run_solve
     from breastcore.scene import discretisation_error
 
     run_mesh({"level": "coarse"}, tmp_path / "mesh.nc")

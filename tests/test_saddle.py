@@ -194,3 +194,58 @@ def test_newton_stops_early_when_the_gradient_sits_at_its_round_off_floor():
     assert result.iterations <= 2 * solver.STAGNATION_WINDOW + 2
     converged = solver.newton(NoisyBowl(), np.ones(3), tolerance=1e-8, max_iterations=100)
     assert converged.success                                     # a reachable tolerance is unaffected
+
+
+class _Model:
+    """The part of a ForwardModel that :func:`breastcore.forward._settle` reads."""
+
+    def __init__(self, method):
+        from breastcore.forward import SolverOptions
+        self.options = SolverOptions(method=method)
+
+
+@pytest.mark.parametrize("method", ["newton", "cg"])
+def test_a_solve_that_ends_on_a_saddle_leaves_it_by_its_own_method(method):
+    """Started on the saddle, both minimisers stop at once (g = 0) and report no inertia of their
+    own at that point; the inertia at the returned point is computed, and the saddle is left."""
+    from breastcore.cg import conjugate_gradient
+    from breastcore.forward import _settle
+    problem = DoubleWell()
+    on_saddle = (conjugate_gradient(problem, np.zeros(2), 1e-12) if method == "cg"
+                 else solver.newton(problem, np.zeros(2), 1e-12))
+    assert on_saddle.success and on_saddle.iterations == 0 and not on_saddle.inertia_at_x
+    settled = _settle(_Model(method), problem, on_saddle)
+    assert settled.success and settled.inertia_at_x and settled.negative_pivots == 0
+    assert abs(abs(settled.x[1]) - 2 ** -0.5) < 1e-6 and settled.energy == pytest.approx(-0.25, abs=1e-10)
+
+
+def test_newton_says_its_inertia_is_that_of_the_iterate_before_its_last_step():
+    result = solver.newton(DoubleWell(), np.array([0.3, 0.8]), 1e-12)
+    assert result.success and result.iterations > 0 and not result.inertia_at_x
+
+
+@pytest.fixture(scope="module")
+def coarse_model():
+    from breastcore.forward import ForwardModel
+    from breastcore.mesh import mesh_level
+    return ForwardModel(mesh_level("coarse"))
+
+
+@pytest.mark.parametrize("method", ["newton", "cg"])
+def test_recorded_negative_eigenvalues_are_the_inertia_at_the_returned_position(method):
+    """Cold and warm (no iteration needed) solves, Newton and CG: the recorded count is recomputed
+    independently at the returned position. CG solves and warm solves used to record -1."""
+    from breastcore.forward import ForwardModel, SolverOptions
+    from breastcore.mesh import mesh_level
+    from breastcore.parameters import Parameters
+    from breastcore.postures import paper_postures
+    model = ForwardModel(mesh_level("coarse"), SolverOptions(method=method))
+    params = Parameters()
+    for posture in paper_postures():
+        cold = model.solve(params, posture)
+        warm = model.solve(params, posture, start=cold.position)
+        assert warm.iterations == 0
+        for solution in (cold, warm):
+            problem = model.problem(params, posture)
+            inertia = solver.Factorization(problem.hessian(problem.free(solution.position))).negative_pivots
+            assert solution.negative_eigenvalues == inertia == 0

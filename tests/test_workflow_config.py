@@ -229,14 +229,69 @@ def test_compute_hash_covers_exactly_the_modules_the_compute_rules_import(tmp_pa
                        str(Path("sub/__init__.py")), str(Path("sub/d.py")), str(Path("sub/k.py"))]
 
     root = Path(breastcore.__file__).parent
-    entries = ["pipeline", "logs", "workflow_plan"]
-    names = {str(p.relative_to(root)) for p in _imported_modules(root, entries)}
-    assert not names & {"results_page.py", "plots.py", "scene.py"}
-    # every package module that importing the entries loads is in the closure
-    code = "import sys, breastcore.pipeline, breastcore.logs, breastcore.workflow_plan; " \
-           "print(' '.join(m for m in sys.modules if m.startswith('breastcore.')))"
-    loaded = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout.split()
-    assert loaded and {m.split(".", 1)[1].replace(".", "/") + ".py" for m in loaded} <= names
+    for stage in breastcore.STAGES:
+        entries = [f"stages.{stage}", "logs", "keys"]
+        names = {str(p.relative_to(root)) for p in _imported_modules(root, entries)}
+        assert not names & {"results_page.py", "plots.py", "scene.py", "workflow_plan.py"}
+        # every package module that importing the stage's script modules loads is in the closure
+        code = f"import sys, breastcore.stages.{stage}, breastcore.logs, breastcore.keys; " \
+               "print(' '.join(m.__file__ for n, m in sys.modules.items() if n.startswith('breastcore.')))"
+        loaded = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                                check=True).stdout.split()
+        assert loaded and {str(Path(f).relative_to(root)) for f in loaded} <= names, stage
+
+
+@pytest.mark.parametrize("module, changed", [
+    ("stability.py", {"stability"}),
+    ("identify.py", {"identify", "sensitivity", "extreme"}),
+    ("forward.py", {"solve", "measure", "identify", "sensitivity", "stability", "extreme"}),
+    ("extreme_guesses.py", {"extreme"}),
+    ("results_page.py", set()),
+    ("workflow_plan.py", set()),
+])
+def test_editing_a_module_changes_the_code_hash_of_the_stages_that_import_it_only(tmp_path, module, changed):
+    """Editing stability.py used to rerun every solve: one hash covered every compute module."""
+    import shutil
+    from pathlib import Path
+
+    import breastcore
+    copy_root = tmp_path / "breastcore"
+    shutil.copytree(Path(breastcore.__file__).parent, copy_root, ignore=shutil.ignore_patterns("__pycache__"))
+    before = {stage: breastcore.stage_hash(stage, copy_root) for stage in breastcore.STAGES}
+    with open(copy_root / module, "a") as f:
+        f.write("\n# an edit\n")
+    after = {stage: breastcore.stage_hash(stage, copy_root) for stage in breastcore.STAGES}
+    assert {stage for stage in breastcore.STAGES if before[stage] != after[stage]} == changed
+    assert before == {stage: breastcore.stage_hash(stage) for stage in breastcore.STAGES}   # the copy is the package
+
+
+def test_every_library_import_is_a_declared_dependency():
+    """pandas and tabulate were imported (tabulate through DataFrame.to_markdown) but not declared."""
+    import ast
+    import re
+    import sys
+    import tomllib
+    from pathlib import Path
+
+    import breastcore
+    root = Path(breastcore.__file__).parent
+    project = tomllib.loads((root.parent / "pyproject.toml").read_text())["project"]
+    declared = {re.split(r"[<>=;\[ ]", d, maxsplit=1)[0].lower() for d in project["dependencies"]}
+    workflow = {re.split(r"[<>=;\[ ]", d, maxsplit=1)[0].lower() for d in project["optional-dependencies"]["workflow"]}
+    distribution = {"yaml": "pyyaml", "netCDF4": "netcdf4"}
+    for path in root.rglob("*.py"):
+        source = path.read_text()
+        needed = set()
+        for node in ast.walk(ast.parse(source)):
+            names = [a.name for a in node.names] if isinstance(node, ast.Import) else \
+                [node.module] if isinstance(node, ast.ImportFrom) and node.level == 0 and node.module else []
+            needed |= {n.split(".")[0] for n in names}
+        needed -= set(sys.stdlib_module_names) | {"breastcore"}
+        if "to_markdown" in source:
+            needed.add("tabulate")
+        allowed = declared | (workflow if path.name == "workflow_config.py" else set())
+        missing = {distribution.get(n, n).lower() for n in needed} - allowed
+        assert not missing, f"{path.name} imports {missing}, not declared in pyproject.toml"
 
 
 def test_fixed_iterations_only_with_gauss_newton():

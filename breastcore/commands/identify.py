@@ -61,10 +61,11 @@ def run(args):
     if not 0 <= args.cost_rtol < 1:
         raise UsageError(f"--cost-rtol must be in [0, 1), got {args.cost_rtol:g}")
     from ..datasets import open_dataset, write_netcdf
-    from ..forward import ForwardModel, SolverOptions
+    from ..forward import SolverOptions
     from ..identification_dataset import identification_dataset
     from ..identify import IdentificationOptions, identify
     from ..observation import MeasurementModel
+    from ..problem import ProblemSpec
     from ..targets import target_from_dataset, truth_from_dataset
 
     base = parameters_from_args(args)
@@ -84,12 +85,13 @@ def run(args):
     ds_m = open_dataset(args.measurements)
     target = target_from_dataset(ds_m)
     mesh, level, _ = mesh_from_args(args)
-    mm = MeasurementModel(ForwardModel(mesh, SolverOptions(method=args.solver)), base, target.postures,
-                          target.measurement_set, processes=args.processes)
+    problem = ProblemSpec(parameters=base, solver=SolverOptions(method=args.solver), postures=target.postures,
+                          measurement_set=target.measurement_set, identification=options)
+    mm = MeasurementModel.from_problem(problem, mesh, processes=args.processes)
     result = identify(mm, target.values, initial, options, target.weights)
     truth = truth_from_dataset(ds_m)
     truth_values = [truth[k] for k in IDENTIFIED] if truth else None
-    ds = identification_dataset(result, mm, target, options, initial=initial, truth=truth_values, mesh_level=level)
+    ds = identification_dataset(result, mm, target, problem, initial=initial, truth=truth_values, mesh_level=level)
     write_netcdf(ds, args.out)
     for name, value, lo, hi in zip(IDENTIFIED, ds["estimate"].values, ds["interval_low"].values,
                                    ds["interval_high"].values):

@@ -19,7 +19,7 @@ def register(sub):
 
 
 def run(args):
-    from ..datasets import open_dataset, parameters_from_dataset, write_netcdf
+    from ..datasets import open_dataset, write_netcdf
     from ..measure import MeasurementError
     from ..patient import load_patient
     from ..targets import measure_solution, measurement_dataset
@@ -33,10 +33,11 @@ def run(args):
             raise UsageError(f"--patient: {err}") from None
         ds = measurement_dataset(target, "patient")
     else:
+        from ..problem import ProblemSpec
         solution = open_dataset(args.solution)
         target, marks = measure_solution(solution, args.measurement_set or "paper15")
-        ds = measurement_dataset(target, str(args.solution), landmarks=marks,
-                                 truth=parameters_from_dataset(solution))
+        problem = ProblemSpec.from_dataset(solution).replace(measurement_set=target.measurement_set)
+        ds = measurement_dataset(target, str(args.solution), landmarks=marks, problem=problem)
     write_netcdf(ds, args.out)
     table = ds["measurement"].to_pandas()
     table.columns = [f"{q} [{u}]" for q, u in zip(ds["quantity"].values, ds["quantity_units"].values)]

@@ -27,11 +27,11 @@ def run(args):
     if args.processes < 1:
         raise UsageError(f"--processes must be ≥ 1, got {args.processes}")
     ds = open_dataset(args.identification)
-    mm, target, options, estimate = problem_from_identification(ds)
+    problem, mm, target, estimate = problem_from_identification(ds)
     J = ds["jacobian"].values.reshape(-1, ds.sizes["parameter"])
     linear = linearised_sensitivity(J, target.weights)
     finite, failures, limited = (None, 0, 0) if args.linearised_only else \
-        finite_sensitivity(mm, target, estimate, options, args.delta, args.processes)
+        finite_sensitivity(mm, target, estimate, problem.identification, args.delta, args.processes)
     out = sensitivity_dataset(ds, finite, linear, failures, args.delta, limited=limited)
     write_netcdf(out, args.out)
     print(f"wrote {args.out}")

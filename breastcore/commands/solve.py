@@ -25,19 +25,20 @@ def register(sub):
 
 
 def run(args):
-    from ..forward import ForwardModel, SolverOptions
     from ..datasets import write_netcdf
+    from ..forward import SolverOptions
     from ..mesh import refold
+    from ..problem import ProblemSpec
     from ..solution import solution_dataset, solve_postures
 
-    params = parameters_from_args(args)
-    postures = postures_from_args(args.posture)
+    problem = ProblemSpec(parameters=parameters_from_args(args), solver=SolverOptions(method=args.solver, rtol=args.rtol),
+                          postures=tuple(postures_from_args(args.posture)))
+    params = problem.parameters
     mesh, level, _ = mesh_from_args(args)
-    options = SolverOptions(method=args.solver, rtol=args.rtol)
-    model = ForwardModel(mesh, options)
-    solutions = solve_postures(model, params, postures)
+    model = problem.forward_model(mesh)
+    solutions = solve_postures(model, params, problem.postures)
     shown = refold(model.map.mesh_at(params.R, params.H), params.fold_angle)
-    write_netcdf(solution_dataset(shown, params, solutions, options, mesh_level=level), args.out)
+    write_netcdf(solution_dataset(shown, problem, solutions, mesh_level=level), args.out)
     for s in solutions:
         print(f"{s.posture.name:>10s}: {s.iterations:3d} iterations, |g| = {s.gradient_norm:.2e} N "
               f"(tol {s.tolerance:.2e}), {s.wall_time:.2f} s")

@@ -1,16 +1,16 @@
 # The job plan (breastcore.workflow_plan) and helpers shared by the rules.
 import os
 
-from breastcore import source_hash
+from breastcore import STAGES, source_hash, stage_hash
 from breastcore.mesh import LEVEL_NODE_COUNTS
 from breastcore.workflow_plan import Plan
 
 PLAN = Plan(config)
 RESULTS = PLAN.results
-# A param of every rule, so that changed code reruns what it affects: the compute rules
-# (their scripts import pipeline, logs and workflow_plan) hash only those modules and their
-# imports; the report rules hash the whole package.
-COMPUTE_CODE = source_hash("pipeline", "logs", "workflow_plan")
+# A param of every rule, so that changed code reruns what it affects: each compute rule
+# hashes the modules its stage imports (breastcore.stages.<stage>, logs, keys), so an edit
+# of stability.py reruns the stability chunks only; the report rules hash the whole package.
+STAGE_CODE = {stage: stage_hash(stage) for stage in STAGES}
 CODE = source_hash()
 
 wildcard_constraints:

@@ -8,6 +8,6 @@ rule identify:
     priority: identify_priority
     params:
         spec=job("identify"),
-        code=COMPUTE_CODE,
+        code=STAGE_CODE["identify"],
     conda: "../envs/breastcore.yaml"
     script: "../scripts/identify.py"

@@ -6,6 +6,6 @@ rule measure:
     priority: UPSTREAM_PRIORITY
     params:
         spec=job("measure"),
-        code=COMPUTE_CODE,
+        code=STAGE_CODE["measure"],
     conda: "../envs/breastcore.yaml"
     script: "../scripts/measure.py"

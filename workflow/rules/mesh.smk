@@ -5,6 +5,6 @@ rule mesh:
     priority: UPSTREAM_PRIORITY
     params:
         spec=job("mesh"),
-        code=COMPUTE_CODE,
+        code=STAGE_CODE["mesh"],
     conda: "../envs/breastcore.yaml"
     script: "../scripts/mesh.py"

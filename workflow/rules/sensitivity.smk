@@ -10,6 +10,6 @@ rule sensitivity:
     priority: sensitivity_priority
     params:
         spec=job("sensitivity"),
-        code=COMPUTE_CODE,
+        code=STAGE_CODE["sensitivity"],
     conda: "../envs/breastcore.yaml"
     script: "../scripts/sensitivity.py"

@@ -6,6 +6,6 @@ rule solve:
     priority: UPSTREAM_PRIORITY
     params:
         spec=job("solve"),
-        code=COMPUTE_CODE,
+        code=STAGE_CODE["solve"],
     conda: "../envs/breastcore.yaml"
     script: "../scripts/solve.py"

@@ -20,7 +20,7 @@ rule stability:
     benchmark: f"{RESULTS}/benchmarks/stability/{{key}}.tsv"
     params:
         spec=job("stability"),
-        code=COMPUTE_CODE,
+        code=STAGE_CODE["stability"],
     conda: "../envs/breastcore.yaml"
     script: "../scripts/stability.py"
 
@@ -32,6 +32,6 @@ rule extreme_guesses:
     benchmark: f"{RESULTS}/benchmarks/extreme/{{key}}.tsv"
     params:
         spec=job("extreme"),
-        code=COMPUTE_CODE,
+        code=STAGE_CODE["extreme"],
     conda: "../envs/breastcore.yaml"
     script: "../scripts/extreme_guesses.py"

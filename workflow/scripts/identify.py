@@ -1,8 +1,8 @@
-"""Snakemake script of the identify rule: calls breastcore.pipeline.run_identify."""
+"""Snakemake script of the identify rule: calls breastcore.stages.identify.run_identify."""
 
 from breastcore.logs import log_to
-from breastcore.pipeline import run_identify
-from breastcore.workflow_plan import spec_key
+from breastcore.stages.identify import run_identify
+from breastcore.keys import spec_key
 
 
 def main(snakemake):

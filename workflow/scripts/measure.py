@@ -1,8 +1,8 @@
-"""Snakemake script of the measure rule: calls breastcore.pipeline.run_measure."""
+"""Snakemake script of the measure rule: calls breastcore.stages.measure.run_measure."""
 
 from breastcore.logs import log_to
-from breastcore.pipeline import run_measure
-from breastcore.workflow_plan import spec_key
+from breastcore.stages.measure import run_measure
+from breastcore.keys import spec_key
 
 
 def main(snakemake):

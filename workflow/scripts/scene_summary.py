@@ -3,7 +3,7 @@
 from breastcore.datasets import write_netcdf
 from breastcore.logs import log_to
 from breastcore.scene import record_datasets, solution_summary, stability_summary, synthetic_summary
-from breastcore.workflow_plan import spec_key
+from breastcore.keys import spec_key
 
 
 def main(snakemake):

@@ -1,8 +1,8 @@
-"""Snakemake script of the sensitivity rule: calls breastcore.pipeline.run_sensitivity."""
+"""Snakemake script of the sensitivity rule: calls breastcore.stages.sensitivity.run_sensitivity."""
 
 from breastcore.logs import log_to
-from breastcore.pipeline import run_sensitivity
-from breastcore.workflow_plan import spec_key
+from breastcore.stages.sensitivity import run_sensitivity
+from breastcore.keys import spec_key
 
 
 def main(snakemake):

@@ -1,8 +1,8 @@
-"""Snakemake script of the solve rule: calls breastcore.pipeline.run_solve."""
+"""Snakemake script of the solve rule: calls breastcore.stages.solve.run_solve."""
 
 from breastcore.logs import log_to
-from breastcore.pipeline import run_solve
-from breastcore.workflow_plan import spec_key
+from breastcore.stages.solve import run_solve
+from breastcore.keys import spec_key
 
 
 def main(snakemake):

@@ -1,8 +1,8 @@
 """Snakemake script of the stability rule: one chunk of grid cases, each a recorded outcome."""
 
 from breastcore.logs import log_to
-from breastcore.pipeline import run_stability
-from breastcore.workflow_plan import spec_key
+from breastcore.stages.stability import run_stability
+from breastcore.keys import spec_key
 
 
 def main(snakemake):

@@ -1,0 +1,142 @@
+"""One problem definition carried through every stage: model, solver, postures, measurements, identification.
+
+A :class:`ProblemSpec` is written into each stage dataset (attribute ``problem``,
+JSON) and every later stage rebuilds its model from it, so nothing downstream falls
+back to a default that the upstream stage did not use: the finite sensitivity of an
+identification re-identifies with exactly its constants, solver and options.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+from dataclasses import dataclass
+
+from .forward import ForwardModel, SolverOptions
+from .identification_options import IdentificationOptions
+from .parameters import Parameters
+from .postures import Posture, paper_postures
+
+#: Name of the dataset attribute that holds the JSON of the spec.
+ATTRIBUTE = "problem"
+
+
+class ProblemSpecError(ValueError):
+    """A dataset without a readable problem spec, or a spec with unknown or missing fields."""
+
+
+@dataclass(frozen=True)
+class ProblemSpec:
+    """Everything that defines ``Λ ↦ M(Λ)`` and its identification, apart from the mesh.
+
+    Attributes
+    ----------
+    parameters : Parameters
+        Λ and the constants (ρ, g, c, δ, t_s, θ_D). In an identification, Λ is the
+        initial guess; the estimate is stored apart.
+    solver : SolverOptions
+    postures : tuple of Posture
+    measurement_set : {"paper15", "exact"} or None
+        None where no measurement is taken (a solve).
+    identification : IdentificationOptions or None
+        None where nothing is identified (a solve, synthetic measurements).
+    """
+
+    parameters: Parameters = Parameters()
+    solver: SolverOptions = SolverOptions()
+    postures: tuple = paper_postures()
+    measurement_set: str | None = None
+    identification: IdentificationOptions | None = None
+
+    def __post_init__(self):
+        object.__setattr__(self, "postures", tuple(self.postures))
+
+    def replace(self, **changes) -> "ProblemSpec":
+        return dataclasses.replace(self, **changes)
+
+    # -- models ---------------------------------------------------------------------------
+    def forward_model(self, mesh) -> ForwardModel:
+        """The forward model on ``mesh`` with this spec's solver options.
+
+        ``Λ ↦ M(Λ)`` is :meth:`breastcore.observation.MeasurementModel.from_problem`.
+        """
+        return ForwardModel(mesh, self.solver)
+
+    def warm_radius(self) -> float:
+        """The warm-start radius of the identification options (the default without options)."""
+        return (self.identification or IdentificationOptions()).warm_radius
+
+    def check_model(self, mm) -> None:
+        """Raise ProblemSpecError unless the measurement model ``mm`` is the one this spec builds.
+
+        A dataset that records this spec must have been computed with it: constants,
+        solver options, postures, measurement set and warm-start radius.
+        """
+        radius = self.warm_radius()
+        found = {"parameters": mm.base, "solver": mm.model.options, "postures": tuple(mm.postures),
+                 "measurement_set": mm.measurement_set, "warm_radius": mm.warm_radius}
+        wanted = {"parameters": self.parameters, "solver": self.solver, "postures": self.postures,
+                  "measurement_set": self.measurement_set, "warm_radius": radius}
+        wrong = [k for k in wanted if found[k] != wanted[k]]
+        if wrong:
+            raise ProblemSpecError(f"the measurement model differs from the problem spec in {', '.join(wrong)}")
+
+    # -- serialisation --------------------------------------------------------------------
+    def as_dict(self) -> dict:
+        return {
+            "parameters": self.parameters.as_dict(),
+            "solver": dataclasses.asdict(self.solver),
+            "postures": [{"name": p.name, "angle": p.angle} for p in self.postures],
+            "measurement_set": self.measurement_set,
+            "identification": None if self.identification is None else dataclasses.asdict(self.identification),
+        }
+
+    def to_json(self) -> str:
+        return json.dumps(self.as_dict(), sort_keys=True)
+
+    @classmethod
+    def from_dict(cls, data) -> "ProblemSpec":
+        """Inverse of :meth:`as_dict`; unknown or missing fields are refused, never defaulted."""
+        fields = {f.name for f in dataclasses.fields(cls)}
+        if set(data) != fields:
+            raise ProblemSpecError(f"problem spec fields {sorted(data)}; expected {sorted(fields)}")
+        try:
+            ident = data["identification"]
+            return cls(parameters=Parameters(**_exact(Parameters, data["parameters"])),
+                       solver=SolverOptions(**_exact(SolverOptions, data["solver"])),
+                       postures=tuple(Posture(p["name"], float(p["angle"])) for p in data["postures"]),
+                       measurement_set=data["measurement_set"],
+                       identification=None if ident is None else
+                       IdentificationOptions(**_exact(IdentificationOptions, ident)))
+        except (TypeError, KeyError, ValueError) as err:
+            raise ProblemSpecError(f"invalid problem spec: {err}") from None
+
+    @classmethod
+    def from_json(cls, text) -> "ProblemSpec":
+        try:
+            data = json.loads(text)
+        except ValueError as err:
+            raise ProblemSpecError(f"problem spec is not JSON: {err}") from None
+        return cls.from_dict(data)
+
+    def attrs(self) -> dict:
+        """The dataset attribute that stores this spec."""
+        return {ATTRIBUTE: self.to_json()}
+
+    @classmethod
+    def from_dataset(cls, ds) -> "ProblemSpec":
+        """The spec a stage dataset was computed with. Raises ProblemSpecError if it has none."""
+        if ATTRIBUTE not in ds.attrs:
+            raise ProblemSpecError(f"dataset of stage {ds.attrs.get('stage', '?')!r} carries no problem spec "
+                                   f"(attribute {ATTRIBUTE!r}); it was written by another breastcore version: "
+                                   f"recompute it")
+        return cls.from_json(ds.attrs[ATTRIBUTE])
+
+
+def _exact(kind, values) -> dict:
+    """``values`` if its keys are exactly the fields of the dataclass ``kind``, else ProblemSpecError."""
+    names = {f.name for f in dataclasses.fields(kind)}
+    if set(values) != names:
+        missing, unknown = sorted(names - set(values)), sorted(set(values) - names)
+        raise ProblemSpecError(f"{kind.__name__} in the problem spec: missing {missing}, unknown {unknown}")
+    return dict(values)

@@ -1,0 +1,29 @@
+"""Stage ``measure``: synthetic measurements of a solution (optionally noisy), or a patient's values."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..datasets import open_dataset, write_netcdf
+from ..patient import PatientMeasurements, patient_from_dict
+from ..problem import ProblemSpec
+from ..targets import measure_solution, measurement_dataset
+
+
+def run_measure(spec, solution_path, out, config_hash=None):
+    """A patient's values (``spec["patient"]``), or the solution's measurements with its problem spec."""
+    if "patient" in spec:
+        p = spec["patient"]
+        target = patient_from_dict({"measurement_set": p["measurement_set"], "units": p["units"],
+                                    "postures": p["postures"]})
+        write_netcdf(measurement_dataset(target, "patient", config_hash=config_hash), out)
+        return
+    solution = open_dataset(solution_path)
+    target, marks = measure_solution(solution, spec["measurement_set"])
+    if spec.get("noise", 0) > 0:
+        rng = np.random.default_rng(spec["seed"])
+        noisy = target.values * (1 + rng.uniform(-spec["noise"], spec["noise"], target.values.shape))
+        target = PatientMeasurements(target.postures, target.quantities, noisy, target.measurement_set)
+    problem = ProblemSpec.from_dataset(solution).replace(measurement_set=target.measurement_set)
+    write_netcdf(measurement_dataset(target, str(solution_path), landmarks=marks, problem=problem,
+                                     config_hash=config_hash), out)
