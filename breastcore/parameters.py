@@ -44,6 +44,15 @@ PARAMETER_INFO = {
 }
 
 
+#: Parameters that must be > 0 and those that must be >= 0 (0 switches a term off);
+#: ``fold_angle`` lies in ``(FOLD_ANGLE_RANGE[0], FOLD_ANGLE_RANGE[1]]`` degrees. The command
+#: line checks its options against the same ranges (``breastcore.cli.parameter_type``).
+POSITIVE_PARAMETERS = ("R", "H", "mu_breast", "smoothing", "density")
+NON_NEGATIVE_PARAMETERS = ("lambda_breast", "lambda_skin", "mu_skin", "skin_thickness", "chassaignac",
+                           "gravity_magnitude")
+FOLD_ANGLE_RANGE = (0.0, 360.0)
+
+
 class ParameterError(ValueError):
     """A parameter value that the model cannot use (names the parameter)."""
 
@@ -86,16 +95,15 @@ class Parameters:
             if not math.isfinite(value):
                 raise ParameterError(f"{f.name} must be finite, got {value}")
             object.__setattr__(self, f.name, value)
-        for name in ("R", "H", "mu_breast", "smoothing", "density"):
+        for name in POSITIVE_PARAMETERS:
             if getattr(self, name) <= 0:
                 raise ParameterError(f"{name} must be > 0, got {getattr(self, name)}")
-        for name in ("lambda_breast", "lambda_skin", "mu_skin", "skin_thickness",
-                     "chassaignac", "gravity_magnitude"):
+        for name in NON_NEGATIVE_PARAMETERS:
             if getattr(self, name) < 0:
                 raise ParameterError(f"{name} must be >= 0, got {getattr(self, name)}")
         if not self.H < self.R:
             raise ParameterError(f"H must be < R (got H={self.H} m, R={self.R} m)")
-        if not 0.0 < self.fold_angle <= 360.0:
+        if not FOLD_ANGLE_RANGE[0] < self.fold_angle <= FOLD_ANGLE_RANGE[1]:
             raise ParameterError(f"fold_angle must be in (0, 360] degrees, got {self.fold_angle}")
 
     def replace(self, **changes) -> "Parameters":

@@ -15,7 +15,7 @@ from types import MappingProxyType as _frozen
 import numpy as np
 import yaml
 
-from .measure import QUANTITIES, MeasurementError, check_measurement_set
+from .measure import QUANTITIES, UNITS, MeasurementError, check_measurement_set
 from .postures import PAPER_POSTURES, Posture, PostureError
 
 KIND = _frozen({q: q if q in ("volume", "area") else "length" for q in QUANTITIES})  #: physical kind
@@ -54,13 +54,30 @@ class PatientMeasurements:
     def __post_init__(self):
         check_measurement_set(self.measurement_set)
         names = [p.name for p in self.postures]
+        if tuple(self.quantities) != QUANTITIES:
+            raise MeasurementError(f"quantities must be {QUANTITIES} in this order, got {tuple(self.quantities)}")
+        if not names:
+            raise MeasurementError("no postures: need at least one")
+        repeated = sorted({n for n in names if names.count(n) > 1})
+        if repeated:
+            raise MeasurementError(f"repeated posture {', '.join(map(repr, repeated))}")
         shape = (len(names), len(QUANTITIES))
         v = np.array(self.values, dtype=float)
         w = np.ones(shape) if self.weights is None else np.array(self.weights, dtype=float)
-        if (tuple(self.quantities) != QUANTITIES or not names or len(set(names)) != len(names) or v.shape != shape
-                or w.shape != shape or not (np.isfinite(v) & (v > 0) & np.isfinite(w) & (w >= 0)).all()):
-            raise MeasurementError(f"need distinct postures, quantities {QUANTITIES}, values finite > 0 and "
-                                   f"weights finite >= 0 of shape {shape}")
+        for what, array in (("values", v), ("weights", w)):
+            if array.shape != shape:
+                raise MeasurementError(f"{what} have shape {array.shape}, expected (posture, quantity) = {shape}")
+        # name the first offending entry, its value in SI units, and how many others there are
+        for what, array, good, rule, units in (("", v, np.isfinite(v) & (v > 0), "> 0", UNITS),
+                                               (" weight", w, np.isfinite(w) & (w >= 0), ">= 0", {})):
+            bad = np.argwhere(~good)
+            if len(bad):
+                i, j = bad[0]
+                q = QUANTITIES[j]
+                unit = f" {units[q]}" if q in units else ""
+                more = f" (and {len(bad) - 1} more bad values)" if len(bad) > 1 else ""
+                raise MeasurementError(f"posture {names[i]!r}: {q}{what} = {array[i, j]:g}{unit} "
+                                       f"must be a finite number {rule}{more}")
         v.setflags(write=False), w.setflags(write=False)
         for name, value in (("values", v), ("weights", w), ("postures", tuple(self.postures))):
             object.__setattr__(self, name, value)
@@ -101,13 +118,18 @@ def _posture(name, angle=None) -> Posture:
         raise MeasurementError(f"posture {name!r}: angle {angle!r} is not a number") from None
 
 
-def _number(value, what, positive=True) -> float:
+def _number(value, what, unit="", positive=True) -> float:
+    """``value`` as a float, finite and > 0 (>= 0 if not ``positive``); the refusal names ``what``,
+    the value as given and its ``unit``."""
     try:
-        number = math.nan if isinstance(value, bool) else float(value)
+        if isinstance(value, bool):                      # YAML's yes/no/true are not numbers
+            raise TypeError
+        number = float(value)
     except (TypeError, ValueError):
-        number = math.nan
+        raise MeasurementError(f"{what} = {value!r} is not a number") from None
     if not (math.isfinite(number) and (number > 0 if positive else number >= 0)):
-        raise MeasurementError(f"{what} = {value!r} must be a finite number {'> 0' if positive else '>= 0'}")
+        shown = str(value).strip() + (f" {unit}" if unit else "")
+        raise MeasurementError(f"{what} = {shown} must be a finite number {'> 0' if positive else '>= 0'}")
     return number
 
 
@@ -119,8 +141,10 @@ def _build(table, measurement_set, weights) -> PatientMeasurements:
         where = f"posture {name!r}: "
         _known([*given, *weights.get(name, {})], QUANTITIES, f"{where}unknown quantity")
         _known(QUANTITIES, given, f"{where}missing quantity", hint=False)
-        values.append([_number(given[q][0], f"{where}{q}") * _unit(q, given[q][1], where)[1] for q in QUANTITIES])
-        w.append([_number(weights.get(name, {}).get(q, 1.0), f"{where}{q} weight", False) for q in QUANTITIES])
+        units = {q: _unit(q, given[q][1], where) for q in QUANTITIES}     # (name, factor); checked first
+        values.append([_number(given[q][0], f"{where}{q}", units[q][0]) * units[q][1] for q in QUANTITIES])
+        w.append([_number(weights.get(name, {}).get(q, 1.0), f"{where}{q} weight", positive=False)
+                  for q in QUANTITIES])
     result = PatientMeasurements(tuple(p for p, _ in table.values()), QUANTITIES, np.array(values),
                                  check_measurement_set(measurement_set), np.array(w))
     check_consistency(result)
@@ -166,9 +190,20 @@ def load_patient(path, measurement_set=None) -> PatientMeasurements:
     the YAML file's, else ``"paper15"``) must agree with the YAML file's if both are given."""
     path = Path(path)
     _known([path.suffix.lower()], (".yaml", ".yml", ".csv"), f"{path}: unknown patient file type")
-    if path.suffix.lower() == ".csv":
-        return _build(*_read_csv(path, measurement_set or "paper15"))
-    data = yaml.safe_load(path.read_text(encoding="utf-8"))
+    # a file that cannot be read or parsed is refused in one line too (YAML's messages span lines)
+    try:
+        if path.suffix.lower() == ".csv":
+            return _build(*_read_csv(path, measurement_set or "paper15"))
+        data = yaml.safe_load(path.read_text(encoding="utf-8"))
+    except UnicodeDecodeError as err:
+        raise MeasurementError(f"{path}: not UTF-8 text (byte {err.start})") from None
+    except OSError as err:
+        raise MeasurementError(f"{path}: cannot read ({err.strerror or err})") from None
+    except yaml.YAMLError as err:
+        mark = getattr(err, "problem_mark", None)
+        where = f" at line {mark.line + 1}, column {mark.column + 1}" if mark else ""
+        raise MeasurementError(f"{path}: not valid YAML ({getattr(err, 'problem', None) or 'syntax error'}{where})") \
+            from None
     if measurement_set is not None and isinstance(data, Mapping):
         if data.setdefault("measurement_set", measurement_set) != measurement_set:
             raise MeasurementError(f"{path}: measurement_set {data['measurement_set']!r} != {measurement_set!r}")

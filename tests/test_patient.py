@@ -203,3 +203,40 @@ def test_dataclass_validation_and_direct_check():
         kwargs = dict(postures=postures, quantities=QUANTITIES, values=SI[:1]) | bad
         with pytest.raises(MeasurementError):
             PatientMeasurements(**kwargs)
+
+
+@pytest.mark.parametrize("change, words", [
+    (dict(values=np.zeros((1, 5))), ["'standing'", "volume = 0 m3", "> 0", "(and 4 more bad values)"]),    # all zero
+    (dict(values=np.full((1, 5), np.nan)), ["'standing'", "volume = nan m3"]),
+    (dict(values=SI[:1] * [1, 1, 1, -1, 1]), ["'standing'", "frontal_depth = -0.062 m "]),
+    (dict(values=SI[:1] * [1, 1, 1, 1, np.inf]), ["'standing'", "back_depth = inf m "]),
+    (dict(weights=[[1, 1, np.nan, 1, 1]]), ["'standing'", "height weight = nan", ">= 0"]),
+    (dict(weights=[[1, -2, 1, 1, 1]]), ["'standing'", "area weight = -2"]),
+    (dict(values=SI), ["values", "(3, 5)", "(1, 5)"]),
+    (dict(weights=np.ones(5)), ["weights", "(5,)", "(1, 5)"]),
+    (dict(postures=(Posture("standing", 0.0),) * 2, values=SI[:2]), ["repeated posture 'standing'"]),
+    (dict(postures=(), values=np.zeros((0, 5))), ["no postures"]),
+    (dict(quantities=QUANTITIES[::-1]), ["quantities", "back_depth"]),
+])
+def test_dataclass_refusal_names_the_offending_entry(change, words):
+    kwargs = dict(postures=(Posture("standing", 0.0),), quantities=QUANTITIES, values=SI[:1]) | change
+    with pytest.raises(MeasurementError) as err:
+        PatientMeasurements(**kwargs)
+    assert "\n" not in str(err.value) and all(w in str(err.value) for w in words), str(err.value)
+
+
+@pytest.mark.parametrize("value, shown", [(-5, "-5 ml"), (0, "0 ml"), (math.nan, "nan ml"), ("-5", "-5 ml")])
+def test_file_refusal_gives_the_value_in_its_units(value, shown):
+    data = good()
+    data["postures"]["standing"]["volume"] = value
+    with pytest.raises(MeasurementError, match=f"posture 'standing': volume = {shown} must be a finite number > 0"):
+        patient_from_dict(data)
+
+
+def test_unreadable_patient_files_are_one_line(tmp_path):
+    (tmp_path / "p.yaml").write_text("postures:\n  standing: {volume: 480\n")
+    (tmp_path / "p.csv").write_bytes(b"posture,quantity,value,unit\nstanding,volume,480,\xb5l\n")
+    for name, words in (("p.yaml", ["p.yaml", "not valid YAML", "line 3"]), ("p.csv", ["p.csv", "not UTF-8"])):
+        with pytest.raises(MeasurementError) as err:
+            load_patient(tmp_path / name)
+        assert "\n" not in str(err.value) and all(w in str(err.value) for w in words), str(err.value)

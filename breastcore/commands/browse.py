@@ -5,7 +5,7 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
-from ..cli import UsageError, existing_file
+from ..cli import UsageError, dataset_file
 
 _KEY_NUMBERS = {
     "mesh": ["reference_position", "tetrahedra"],
@@ -21,7 +21,7 @@ _KEY_NUMBERS = {
 
 def register(sub):
     p = sub.add_parser("show", help="print a readable summary of a result dataset")
-    p.add_argument("dataset", type=existing_file("FILE"), metavar="FILE.nc")
+    p.add_argument("dataset", type=dataset_file(), metavar="FILE.nc", help="any breastcore dataset")
     p.set_defaults(run=run_show)
     q = sub.add_parser("list", help="list the result datasets of a folder with their scene and stage")
     q.add_argument("folder", nargs="?", default="results", metavar="FOLDER")

@@ -2,14 +2,16 @@
 
 from __future__ import annotations
 
-from ..cli import existing_file
+from ..cli import dataset_file
 
 
 def register(sub):
     p = sub.add_parser("export", help="write VTU/XDMF files of a solution for ParaView",
                        description="Write one mesh file per posture (deformed tets with the displacement "
                                    "field, in metres) next to the output prefix.")
-    p.add_argument("solution", type=existing_file("SOLUTION"), metavar="SOLUTION.nc")
+    # an identification carries the shapes at its estimate too (the workflow exports those)
+    p.add_argument("solution", type=dataset_file("solve", "identify"), metavar="SOLUTION.nc",
+                   help="solution or identification dataset (stage solve or identify)")
     p.add_argument("--format", choices=["vtu", "xdmf"], default="vtu", help="file format (default vtu)")
     p.add_argument("--out-dir", default=None, help="folder for the files (default: beside SOLUTION.nc)")
     p.set_defaults(run=run)

@@ -2,8 +2,9 @@
 
 from __future__ import annotations
 
-from ..cli import (UsageError, add_mesh_options, add_parameter_options, existing_file, mesh_from_args,
-                   parameters_from_args, writable_path)
+from ..cli import (UsageError, add_mesh_options, add_parameter_options, check_measurements, dataset_file, fraction,
+                   mesh_from_args, non_negative_float, parameter_assignments, parameters_from_args, positive_float,
+                   positive_int, writable_path)
 from ..parameters import IDENTIFIED, PARAMETER_INFO
 
 
@@ -26,40 +27,47 @@ def register(sub):
     p = sub.add_parser("identify", help="identify Λ = (R, H, λ, μ, λ_s, μ_s) from measurements",
                        description="Identify the six parameters from a measurement dataset; write the history, "
                                    "estimate, shapes, Jacobian, covariance and 95 % intervals.")
-    p.add_argument("--measurements", required=True, type=existing_file("--measurements"), metavar="M.nc")
+    p.add_argument("--measurements", required=True, type=dataset_file("measure", check=check_measurements),
+                   metavar="M.nc", help="measurement dataset (stage measure, from breastcore measure)")
     add_mesh_options(p)
-    p.add_argument("--initial", default="", metavar="R=..,H=..,...",
-                   help="initial guess of some of the six parameters (SI); the rest from the parameter options")
+    p.add_argument("--initial", default="", metavar="R=..,H=..,...", type=parameter_assignments(IDENTIFIED),
+                   help="initial guess of some of the six parameters (SI, each in the range of its option); "
+                        "the rest from the parameter options")
     p.add_argument("--method", choices=["lm", "gauss-newton"], default="lm",
                    help="lm (Levenberg-Marquardt in log parameters, default) or gauss-newton (the paper's)")
     p.add_argument("--jacobian", choices=["implicit", "fd"], default="implicit",
                    help="implicit (adjoint-free sensitivities, default) or fd (forward differences)")
     p.add_argument("--solver", choices=["newton", "cg"], default="newton", help="forward solver (default newton)")
-    p.add_argument("--fd-step", type=float, default=1e-4, help="relative FD step ε (default 1e-4)")
-    p.add_argument("--cost-tol", type=float, default=1e-14, help="Gauss-Newton stop ε_m on the cost decrease (default 1e-14)")
-    p.add_argument("--cost-rtol", type=float, default=0.0,
+    # a step Λ_j(1 + ε) with ε >= 1 at least doubles Λ_j: no longer a derivative
+    p.add_argument("--fd-step", type=fraction(zero=False), default=1e-4,
+                   help="relative FD step ε, in (0, 1) (default 1e-4)")
+    p.add_argument("--cost-tol", type=non_negative_float(), default=1e-14,
+                   help="Gauss-Newton stop ε_m on the cost decrease, >= 0 (default 1e-14)")
+    # a step never lowers the cost by more than all of it: cost_rtol >= 1 would stop after any step
+    p.add_argument("--cost-rtol", type=fraction(), default=0.0,
                    help="both methods: stop, converged, after an accepted step that lowers the cost by less than "
-                        "this fraction of it (default 0: off)")
-    p.add_argument("--max-iterations", type=int, default=50, help="iteration limit (default 50)")
-    p.add_argument("--noise", type=float, default=0.10,
-                   help="relative 1σ measurement noise of the uncertainty model (default 0.10)")
-    p.add_argument("--initial-trust-radius", type=float, default=0.5,
-                   help="LM: first trust-region radius in the log/logit parameters (default 0.5)")
+                        "this fraction of it, in [0, 1) (default 0: off)")
+    p.add_argument("--max-iterations", type=positive_int(), default=50,
+                   help="iteration limit, integer >= 1 (default 50)")
+    p.add_argument("--noise", type=positive_float(), default=0.10,
+                   help="relative 1σ measurement noise of the uncertainty model, > 0 (default 0.10)")
+    p.add_argument("--initial-trust-radius", type=positive_float(), default=0.5,
+                   help="LM: first trust-region radius in the log/logit parameters, > 0 (default 0.5)")
     p.add_argument("--fixed-iterations", action="store_true",
                    help="gauss-newton only: run exactly --max-iterations iterations without the ε_m test "
                         "(the paper's evolution runs); never reported converged")
-    p.add_argument("--processes", type=int, default=1,
-                   help="solve the postures in this many processes (default 1; 2 pays from the thin mesh up)")
+    p.add_argument("--warm-radius", type=non_negative_float(), default=0.05,
+                   help="warm-start a forward solve only from equilibria within this relative distance of the new "
+                        "Λ (max over the six), >= 0; 0: always cold between different Λ (default 0.05)")
+    p.add_argument("--processes", type=positive_int(), default=1,
+                   help="solve the postures in this many processes, integer >= 1 "
+                        "(default 1; 2 pays from the thin mesh up)")
     add_parameter_options(p)
-    p.add_argument("--out", required=True, type=writable_path("--out"), metavar="ID.nc")
+    p.add_argument("--out", required=True, type=writable_path(), metavar="ID.nc")
     p.set_defaults(run=run)
 
 
 def run(args):
-    if args.processes < 1:
-        raise UsageError(f"--processes must be ≥ 1, got {args.processes}")
-    if not 0 <= args.cost_rtol < 1:
-        raise UsageError(f"--cost-rtol must be in [0, 1), got {args.cost_rtol:g}")
     from ..datasets import open_dataset, write_netcdf
     from ..forward import SolverOptions
     from ..identification_dataset import identification_dataset
@@ -79,7 +87,7 @@ def run(args):
                                         cost_tol=args.cost_tol, cost_rtol=args.cost_rtol,
                                         max_iterations=args.max_iterations, noise=args.noise,
                                         initial_trust_radius=args.initial_trust_radius,
-                                        fixed_iterations=args.fixed_iterations)
+                                        fixed_iterations=args.fixed_iterations, warm_radius=args.warm_radius)
     except ValueError as err:
         raise UsageError(f"identification options: {err}") from None
     ds_m = open_dataset(args.measurements)

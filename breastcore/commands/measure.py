@@ -2,19 +2,20 @@
 
 from __future__ import annotations
 
-from ..cli import UsageError, existing_file, writable_path
+from ..cli import UsageError, dataset_file, existing_file, writable_path
 
 
 def register(sub):
     p = sub.add_parser("measure", help="measure a solution (or convert a patient file) into a measurement dataset",
                        description="Write measurement(posture, quantity) in SI units (m3, m2, m). Give either a "
                                    "solution dataset or --patient FILE (YAML or CSV in mm, cm2, ml).")
-    p.add_argument("solution", nargs="?", type=existing_file("SOLUTION"), metavar="SOLUTION.nc")
-    p.add_argument("--patient", type=existing_file("--patient"), metavar="FILE",
+    p.add_argument("solution", nargs="?", type=dataset_file("solve"), metavar="SOLUTION.nc",
+                   help="solution dataset (stage solve, from breastcore solve)")
+    p.add_argument("--patient", type=existing_file(), metavar="FILE",
                    help="patient measurements (.yaml/.yml/.csv) in clinical units")
     p.add_argument("--set", dest="measurement_set", choices=["paper15", "exact"], default=None,
                    help="paper15 (tape and ruler formulas, default) or exact (mesh volume and skin area)")
-    p.add_argument("--out", required=True, type=writable_path("--out"), metavar="M.nc")
+    p.add_argument("--out", required=True, type=writable_path(), metavar="M.nc")
     p.set_defaults(run=run)
 
 
@@ -35,7 +36,10 @@ def run(args):
     else:
         from ..problem import ProblemSpec
         solution = open_dataset(args.solution)
-        target, marks = measure_solution(solution, args.measurement_set or "paper15")
+        try:
+            target, marks = measure_solution(solution, args.measurement_set or "paper15")
+        except MeasurementError as err:     # e.g. non-finite positions, or a shape measured <= 0
+            raise UsageError(f"SOLUTION.nc {str(args.solution)!r}: {err}") from None
         problem = ProblemSpec.from_dataset(solution).replace(measurement_set=target.measurement_set)
         ds = measurement_dataset(target, str(args.solution), landmarks=marks, problem=problem)
     write_netcdf(ds, args.out)

@@ -2,19 +2,23 @@
 
 from __future__ import annotations
 
-from ..cli import UsageError, existing_file, writable_path
+from ..cli import dataset_file, fraction, positive_int, writable_path
 
 
 def register(sub):
     p = sub.add_parser("sensitivity", help="sensitivity of Λ to each measurement",
                        description="Relative sensitivity ∂lnΛ/∂ln m: the paper's re-identification with each "
                                    "m_i × (1 ± δ), and the linearised (JᵀJ)⁻¹Jᵀ from the same Jacobian.")
-    p.add_argument("identification", type=existing_file("ID"), metavar="ID.nc")
-    p.add_argument("--delta", type=float, default=0.10, help="relative perturbation δ of each measurement (default 0.10)")
+    p.add_argument("identification", type=dataset_file("identify"), metavar="ID.nc",
+                   help="identification dataset (stage identify, from breastcore identify)")
+    # m_i (1 - δ) must stay > 0, and δ = 0 would divide by zero
+    p.add_argument("--delta", type=fraction(zero=False), default=0.10,
+                   help="relative perturbation δ of each measurement, in (0, 1) (default 0.10)")
     p.add_argument("--linearised-only", action="store_true", help="skip the 2n re-identifications")
-    p.add_argument("--processes", type=int, default=1,
-                   help="forked processes for the 2n re-identifications (default 1; same results for any value)")
-    p.add_argument("--out", required=True, type=writable_path("--out"), metavar="S.nc")
+    p.add_argument("--processes", type=positive_int(), default=1,
+                   help="forked processes for the 2n re-identifications, integer >= 1 "
+                        "(default 1; same results for any value)")
+    p.add_argument("--out", required=True, type=writable_path(), metavar="S.nc")
     p.set_defaults(run=run)
 
 
@@ -24,8 +28,6 @@ def run(args):
     from ..study import problem_from_identification
     from ..uncertainty import linearised_sensitivity
 
-    if args.processes < 1:
-        raise UsageError(f"--processes must be ≥ 1, got {args.processes}")
     ds = open_dataset(args.identification)
     problem, mm, target, estimate = problem_from_identification(ds)
     J = ds["jacobian"].values.reshape(-1, ds.sizes["parameter"])

@@ -2,8 +2,8 @@
 
 from __future__ import annotations
 
-from ..cli import (add_mesh_options, add_parameter_options, mesh_from_args, parameters_from_args,
-                   postures_from_args, writable_path)
+from ..cli import (add_mesh_options, add_parameter_options, fraction, mesh_from_args, parameters_from_args,
+                   posture_text, postures_from_args, writable_path)
 
 
 def register(sub):
@@ -11,15 +11,16 @@ def register(sub):
                        description="Solve the equilibrium of the breast under gravity in each posture and "
                                    "write the solution dataset (netCDF).")
     add_mesh_options(p)
-    p.add_argument("--posture", action="append", metavar="NAME[=ANGLE]",
+    p.add_argument("--posture", action="append", metavar="NAME[=ANGLE]", type=posture_text,
                    help="posture, repeatable: standing (0°), bent45 (45°), fours (90°) or NAME=ANGLE in "
                         "degrees within [0, 90] (default: the paper's three)")
     add_parameter_options(p)
     p.add_argument("--solver", choices=["newton", "cg"], default="newton",
                    help="newton (exact Hessian, default) or cg (the paper's baseline)")
-    p.add_argument("--rtol", type=float, default=1e-8,
-                   help="stop when ‖free-dof gradient‖ ≤ RTOL × ‖gravity load‖ (default 1e-8)")
-    p.add_argument("--out", required=True, type=writable_path("--out"), metavar="FILE.nc",
+    # RTOL >= 1 would accept the undeformed start, whose gradient is the gravity load itself
+    p.add_argument("--rtol", type=fraction(zero=False), default=1e-8,
+                   help="stop when ‖free-dof gradient‖ ≤ RTOL × ‖gravity load‖, in (0, 1) (default 1e-8)")
+    p.add_argument("--out", required=True, type=writable_path(), metavar="FILE.nc",
                    help="output solution dataset")
     p.set_defaults(run=run)
 
