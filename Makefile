@@ -4,7 +4,7 @@ VENV   ?= .venv
 BIN    := $(VENV)/bin
 CORES  ?= 2
 
-.PHONY: run test test-slow bench report clean-results
+.PHONY: run test test-slow bench bench-full report clean-results
 
 $(BIN)/.installed: pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -21,8 +21,24 @@ test: $(BIN)/.installed         ## the unit suite (< 10 min on 2 cores)
 test-slow: $(BIN)/.installed    ## long studies kept out of the unit suite
 	$(BIN)/pytest -q -m slow
 
-bench: $(BIN)/.installed        ## benchmark tables (medians over repeats)
-	for b in benchmarks/bench_*.py; do $(BIN)/python $$b || exit 1; done
+# Every benchmarks/bench_*.py, each printing its tables and its own wall time. `bench` runs
+# each in its --quick mode (smaller levels and samples, same tables; minutes in all, see
+# docs/benchmarks.md); `bench-full` runs the studies with their defaults (hours: fine50k
+# solves, the 2,592-case stability grid, ultra-thin identifications). Neither needs a
+# workflow run: a benchmark builds the meshes and inputs it needs.
+BENCH_RUN = for b in benchmarks/bench_*.py; do \
+	  echo "== $$b $(BENCH_FLAGS)"; start=$$(date +%s); \
+	  $(BIN)/python $$b $(BENCH_FLAGS) || exit 1; \
+	  echo "== $$b: $$(( $$(date +%s) - start )) s"; echo; \
+	done
+
+bench: BENCH_FLAGS = --quick
+bench: $(BIN)/.installed        ## quick benchmark tables (medians over repeats)
+	@$(BENCH_RUN)
+
+bench-full: BENCH_FLAGS =
+bench-full: $(BIN)/.installed   ## the full benchmark studies (hours)
+	@$(BENCH_RUN)
 
 report: $(BIN)/.installed
 	$(BIN)/snakemake --cores $(CORES) --report results/report.html

@@ -3,10 +3,14 @@
 Usage::
 
     python benchmarks/bench_cold_variants.py [--level medium-thin] [--variants default,smoothing1e-3,projected]
+    python benchmarks/bench_cold_variants.py --quick      # the coarse level (``make bench``)
 
 Five parameter points (Λ̄ and four uniform draws within ±40 %, seed 0) are solved
-cold in each paper posture, on ``results/mesh/<level>.nc`` (run the workflow first).
-Variants:
+cold in each paper posture, on the gmsh mesh of ``--level``
+(:func:`breastcore.mesh.mesh_level`, the mesh the workflow writes to
+``results/mesh/<level>.nc``, node for node; built here, so no workflow run is needed).
+``--quick`` runs the coarse level instead, unless
+``--level`` is given. Variants:
 
 - ``default``: the shipped ``SolverOptions``;
 - ``smoothing1e-3`` / ``smoothing1e-2``: the gravity ramp at δ = 1e-3 m / 1e-2 m
@@ -33,10 +37,10 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from benchmarks._common import ROOT, header, print_table  # noqa: E402
+from benchmarks._common import header, print_table  # noqa: E402
 import breastcore.forward as forward  # noqa: E402
-from breastcore.datasets import mesh_from_dataset, open_dataset  # noqa: E402
 from breastcore.measure import measure  # noqa: E402
+from breastcore.mesh import mesh_level  # noqa: E402
 from breastcore.parameters import IDENTIFIED, Parameters  # noqa: E402
 from breastcore.postures import paper_postures  # noqa: E402
 from breastcore.solver import newton  # noqa: E402
@@ -49,13 +53,24 @@ VARIANTS = {
 }
 
 
-def main(argv=None):
+def parse_args(argv=None):
+    """The command line (``sys.argv[1:]`` if ``argv`` is None), with the defaults ``--quick`` implies."""
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    parser.add_argument("--level", default="medium-thin")
+    # None marks "not given", so that --quick only replaces the level when none was asked for.
+    parser.add_argument("--level", default=None, help="mesh level (default medium-thin; with --quick coarse)")
     parser.add_argument("--variants", default="default,smoothing1e-3,projected")
+    parser.add_argument("--quick", action="store_true", help="the coarse level (make bench)")
     args = parser.parse_args(argv)
-    header("bench_cold_variants")
-    mesh = mesh_from_dataset(open_dataset(ROOT / "results" / "mesh" / f"{args.level}.nc"))
+    args.level = args.level or ("coarse" if args.quick else "medium-thin")
+    return args
+
+
+def main(argv=None):
+    args = parse_args(argv)
+    header("bench_cold_variants", [sys.argv[0]] + (argv if argv is not None else sys.argv[1:]))
+    # The same gmsh mesh as the workflow's results/mesh/<level>.nc (mesh_level is what run_mesh
+    # writes), so the benchmark no longer depends on a workflow run having happened.
+    mesh = mesh_level(args.level)
     base = Parameters()
     truth = np.array([getattr(base, n) for n in IDENTIFIED])
     rng = np.random.default_rng(0)

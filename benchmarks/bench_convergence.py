@@ -7,6 +7,14 @@ observed order ``p`` is the least-squares slope of ``log |q_level − q_finest|`
 against ``log h`` over the levels other than the finest (so it is biased low when
 the second-finest level is close to the finest). The levels are independent gmsh
 meshes, not nested refinements, so the differences also carry mesh-to-mesh noise.
+
+Usage::
+
+    python benchmarks/bench_convergence.py [--levels coarse medium thin reference fine10k]
+    python benchmarks/bench_convergence.py --quick     # without fine10k (``make bench``)
+
+``--quick`` drops fine10k, so the finest level (the differences' reference) is
+``reference`` (3,010 nodes).
 """
 
 from __future__ import annotations
@@ -59,11 +67,17 @@ def observed_order(nodes, errors):
     return fit_exponent(nodes[ok] ** (-1.0 / 3.0), errors[ok])
 
 
-def main(argv=None):
+def parse_args(argv=None):
+    """The command line (``sys.argv[1:]`` if ``argv`` is None), with the defaults ``--quick`` implies."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--levels", nargs="+", default=LEVELS)
-    parser.add_argument("--quick", action="store_true", help="coarse, medium, thin, reference only")
+    parser.add_argument("--quick", action="store_true", help="coarse, medium, thin, reference only (make bench)")
     args = parser.parse_args(argv)
+    return args
+
+
+def main(argv=None):
+    args = parse_args(argv)
     header("Mesh convergence", [sys.argv[0]] + (argv if argv is not None else sys.argv[1:]))
     from breastcore.postures import paper_postures
     levels = [lv for lv in args.levels if not (args.quick and lv == "fine10k")]

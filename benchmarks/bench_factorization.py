@@ -3,6 +3,7 @@
 Usage::
 
     python benchmarks/bench_factorization.py [--levels ultra-thin reference fine10k fine50k] [--repeats 3]
+    python benchmarks/bench_factorization.py --quick     # without fine50k (``make bench``)
 
 For each mesh level, with ``BREASTCORE_PARDISO_THREADS`` as set (the fine50k target
 uses 2), medians of ``--repeats``:
@@ -14,6 +15,8 @@ uses 2), medians of ``--repeats``:
 - ``mixed``: the single-precision factorisation and a solve refined in double to
   ``‖b − Kx‖ ≤ 1e-10 ‖b‖`` (:class:`~breastcore.solver.Factorization` with ``mixed=True``),
   with the refinement steps it took.
+
+``--quick`` leaves out fine50k, unless ``--levels`` is given.
 
 The matrix is the exact Hessian at the gravity-free shape under standing gravity, the
 right-hand side its gradient. The solver uses mixed precision from
@@ -61,11 +64,21 @@ def level_row(level, repeats):
             f"{res_mixed:.1e}"]
 
 
-def main(argv=None):
+def parse_args(argv=None):
+    """The command line (``sys.argv[1:]`` if ``argv`` is None), with the defaults ``--quick`` implies."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--levels", nargs="+", default=["ultra-thin", "reference", "fine10k", "fine50k"])
+    # None marks "not given": --quick replaces the levels only when none were asked for.
+    parser.add_argument("--levels", nargs="+", default=None,
+                        help="mesh levels (default ultra-thin reference fine10k fine50k; --quick: without fine50k)")
     parser.add_argument("--repeats", type=int, default=3)
+    parser.add_argument("--quick", action="store_true", help="ultra-thin, reference, fine10k (make bench)")
     args = parser.parse_args(argv)
+    args.levels = args.levels or ["ultra-thin", "reference", "fine10k"] + ([] if args.quick else ["fine50k"])
+    return args
+
+
+def main(argv=None):
+    args = parse_args(argv)
     header("Pattern and factorisation costs", [sys.argv[0]] + (argv if argv is not None else sys.argv[1:]))
     print(f"PARDISO threads: {os.environ.get('BREASTCORE_PARDISO_THREADS', '1')}; mixed precision from "
           f"{solver.MIXED_PRECISION_MIN_DOFS:,} dofs in the solver\n", flush=True)

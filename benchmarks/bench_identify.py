@@ -4,7 +4,8 @@ Usage::
 
     python benchmarks/bench_identify.py times    [--levels coarse,ultra-thin] [--paper-iterations 10]
     python benchmarks/bench_identify.py jacobian [--levels coarse,ultra-thin]
-    python benchmarks/bench_identify.py all
+    python benchmarks/bench_identify.py [all]          # both; ``all`` is the default
+    python benchmarks/bench_identify.py --quick        # both, coarse only (``make bench``)
 
 ``times``: inverse-crime data (truth on the identification level), three fixed
 starts 30 % off (``_ident.STARTS_30``), one run each; the median is reported.
@@ -13,6 +14,11 @@ in 2 processes), against the paper's method
 (non-linear CG forward solves, forward-difference Jacobian, Gauss–Newton), which
 is capped: coarse only and ``--paper-iterations`` (default 10) iterations.
 ``jacobian``: one implicit Jacobian against one forward solve of the three postures.
+
+``--quick`` runs both on coarse only, the paper's method capped at one iteration
+(``--paper-iterations 1``) and 300 s per run, each unless given explicitly; its
+results go to ``benchmarks/results/identification_*_quick.json`` so that a quick run
+never overwrites a full one.
 """
 
 from __future__ import annotations
@@ -39,7 +45,7 @@ def save(name, data):
     (RESULTS / f"identification_{name}.json").write_text(json.dumps(data, indent=1))
 
 
-def bench_times(levels=("coarse", "ultra-thin"), paper_iterations=10, paper_timeout=900.0):
+def bench_times(levels=("coarse", "ultra-thin"), paper_iterations=10, paper_timeout=900.0, suffix=""):
     out = {}
     summary = []
     for level in levels:
@@ -96,11 +102,11 @@ def bench_times(levels=("coarse", "ultra-thin"), paper_iterations=10, paper_time
         if level in PAPER_TIME:
             print(f"ratio paper's published time / ours on {level}: {PAPER_TIME[level] / t:.3g}")
     print()
-    save("times", out)
+    save("times" + suffix, out)
     return summary
 
 
-def bench_jacobian(levels=("coarse", "ultra-thin"), repeats=5, cold_repeats=3):
+def bench_jacobian(levels=("coarse", "ultra-thin"), repeats=5, cold_repeats=3, suffix=""):
     rows = []
     for level in levels:
         forward_model(level)
@@ -119,23 +125,41 @@ def bench_jacobian(levels=("coarse", "ultra-thin"), repeats=5, cold_repeats=3):
                  "J / cold solve", "J / warm solve", "fd J / implicit J", "J ≤ 3 cold solves"], rows,
                 title="One Jacobian vs one forward solve of the three postures (medians; "
                       f"{cold_repeats} cold solves, {repeats} warm solves and Jacobians, {cold_repeats} fd Jacobians)")
-    save("jacobian", rows)
+    save("jacobian" + suffix, rows)
     return rows
 
 
-def main(argv=None):
+def parse_args(argv=None):
+    """The command line (``sys.argv[1:]`` if ``argv`` is None), with the defaults ``--quick`` implies."""
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("bench", choices=("times", "jacobian", "all"))
-    parser.add_argument("--levels", default="coarse,ultra-thin")
-    parser.add_argument("--paper-iterations", type=int, default=10, help="cap of the paper's method (0: skip)")
-    parser.add_argument("--paper-timeout", type=float, default=900.0, help="s per run of the paper's method")
+    parser.add_argument("bench", nargs="?", default="all", choices=("times", "jacobian", "all"),
+                        help="which benchmark (default: all)")
+    # None marks "not given": --quick fills in only what was not asked for.
+    parser.add_argument("--levels", default=None, help="comma-separated (default coarse,ultra-thin; --quick: coarse)")
+    parser.add_argument("--paper-iterations", type=int, default=None,
+                        help="cap of the paper's method (0: skip; default 10, --quick: 1)")
+    parser.add_argument("--paper-timeout", type=float, default=None,
+                        help="s per run of the paper's method (default 900, --quick: 300)")
+    parser.add_argument("--quick", action="store_true",
+                        help="coarse only, the paper's method capped at 1 iteration (make bench)")
     args = parser.parse_args(argv)
+    quick = {"levels": "coarse", "paper_iterations": 1, "paper_timeout": 300.0}
+    full = {"levels": "coarse,ultra-thin", "paper_iterations": 10, "paper_timeout": 900.0}
+    for key, value in (quick if args.quick else full).items():
+        if getattr(args, key) is None:
+            setattr(args, key, value)
+    return args
+
+
+def main(argv=None):
+    args = parse_args(argv)
     header("identification benchmarks", [sys.argv[0]] + (argv if argv is not None else sys.argv[1:]))
     levels = tuple(args.levels.split(","))
+    suffix = "_quick" if args.quick else ""
     if args.bench in ("jacobian", "all"):
-        bench_jacobian(levels)
+        bench_jacobian(levels, suffix=suffix)
     if args.bench in ("times", "all"):
-        bench_times(levels, args.paper_iterations, args.paper_timeout)
+        bench_times(levels, args.paper_iterations, args.paper_timeout, suffix=suffix)
     return 0
 
 

@@ -3,6 +3,7 @@
 Usage::
 
     python benchmarks/bench_projection.py [--levels medium,medium-thin,ultra-thin] [--repeats 7]
+    python benchmarks/bench_projection.py --quick     # medians of 3 (``make bench``)
 
 For each mesh level, at the cold standing equilibrium of the reference parameters
 (``Parameters()``), times the assembly of the free-dof Hessian, medians of ``--repeats``:
@@ -14,6 +15,8 @@ For each mesh level, at the cold standing equilibrium of the reference parameter
 - ``12×12 eigh``: the method before it, every bulk and skin element block built in
   numpy and projected by a batched ``eigh`` (:func:`breastcore.energy.project_psd`),
   then assembled. Kept here, not in the package, as the baseline.
+
+``--quick`` takes medians of 3 instead of 7, unless ``--repeats`` is given.
 
 Also prints, for scale, one PARDISO numeric factorisation of the exact Hessian, and
 the share of tets whose tangent modulus is indefinite there.
@@ -47,12 +50,21 @@ def eigh_per_block(problem, x):
     return problem.assembler.assemble(blocks)
 
 
-def main(argv=None):
+def parse_args(argv=None):
+    """The command line (``sys.argv[1:]`` if ``argv`` is None), with the defaults ``--quick`` implies."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--levels", default="medium,medium-thin,ultra-thin")
-    parser.add_argument("--repeats", type=int, default=7)
+    parser.add_argument("--repeats", type=int, default=None, help="medians of (default 7; --quick: 3)")
+    parser.add_argument("--quick", action="store_true", help="medians of 3 (make bench)")
     args = parser.parse_args(argv)
-    header("bench_projection")
+    if args.repeats is None:
+        args.repeats = 3 if args.quick else 7
+    return args
+
+
+def main(argv=None):
+    args = parse_args(argv)
+    header("bench_projection", [sys.argv[0]] + (argv if argv is not None else sys.argv[1:]))
     rows = []
     for level in args.levels.split(","):
         model = ForwardModel(mesh_level(level))

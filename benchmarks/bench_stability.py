@@ -23,8 +23,14 @@ killed and counted as a hang. Outcomes:
 - ``solve_error``: :class:`~breastcore.forward.SolveError` (a clean, typed failure);
 - ``crash``: any other exception; ``hang``: killed at the time cap.
 
-Writes ``benchmarks/results/stability.csv`` and prints the counts, the
-convergence rate and a per-value breakdown.
+Writes ``benchmarks/results/stability.csv`` (``stability_quick.csv`` with ``--quick``,
+so that ``make bench`` never overwrites a full grid's table) and prints the counts,
+the convergence rate and a per-value breakdown.
+
+Usage::
+
+    python benchmarks/bench_stability.py [--sample N] [--level coarse] [--timeout 120]
+    python benchmarks/bench_stability.py --quick     # --sample 150 (``make bench``)
 """
 
 from __future__ import annotations
@@ -287,15 +293,23 @@ def write_csv(rows, path):
     print(f"case table: {os.path.relpath(path, RESULTS.parents[1])}")
 
 
-def main(argv=None):
+def parse_args(argv=None):
+    """The command line (``sys.argv[1:]`` if ``argv`` is None), with the defaults ``--quick`` implies."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--sample", type=int, default=0, help="Latin-hypercube-like subsample size (0: full grid)")
-    parser.add_argument("--quick", action="store_true", help="same as --sample 150")
+    parser.add_argument("--quick", action="store_true", help="same as --sample 150 (make bench)")
     parser.add_argument("--level", default="coarse")
     parser.add_argument("--processes", type=int, default=2)
     parser.add_argument("--timeout", type=float, default=120.0, help="per-case wall-time cap, s")
-    parser.add_argument("--out", type=Path, default=RESULTS / "stability.csv")
+    parser.add_argument("--out", type=Path, default=None,
+                        help="case table (default benchmarks/results/stability.csv; --quick: stability_quick.csv)")
     args = parser.parse_args(argv)
+    args.out = args.out or RESULTS / ("stability_quick.csv" if args.quick else "stability.csv")
+    return args
+
+
+def main(argv=None):
+    args = parse_args(argv)
     header("Stability grid", [sys.argv[0]] + (argv if argv is not None else sys.argv[1:]))
     n = 150 if args.quick and not args.sample else args.sample
     cases = sampled_grid(n) if n else full_grid()

@@ -4,18 +4,26 @@ Usage::
 
     python benchmarks/bench_warm_radius.py [--level medium-thin] [--radii 0.05,0.15]
                                            [--starts 2] [--offsets 0.1,0.3,0.6,0.9]
+    python benchmarks/bench_warm_radius.py --quick    # coarse, 1 start per offset (``make bench``)
 
 Takes the jobs of scene ``paper_table1`` (``config.yaml`` + ``config/paper.yaml``) on
 one mesh level, the first ``--starts`` random starts per offset, and runs each
 identification in this process (no Snakemake, so about 1 s less overhead per job than
-in the workflow) once per ``MeasurementModel.warm_radius``. The inputs (mesh,
-measurements) must exist: run the paper scene, or at least its ``measure`` jobs.
-Each run is written to ``benchmarks/results/warm_radius/``.
+in the workflow) once per ``MeasurementModel.warm_radius``. ``--quick`` takes the
+coarse level and one start per offset, unless ``--level`` or ``--starts`` are given.
+
+The inputs (the level's mesh and the synthetic measurements, i.e. the truth mesh and
+solve on the reference level) are the workflow's files under ``results/`` when the
+paper scene has written them; the ones missing are built here by the workflow's own
+stage functions (``breastcore.pipeline.run_mesh``, ``run_solve``, ``run_measure``,
+same specs) into ``benchmarks/results/warm_radius/inputs/``, so a fresh clone needs
+no workflow run. Each identification is written to ``benchmarks/results/warm_radius/``.
 """
 
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 import time
 from pathlib import Path
@@ -30,7 +38,7 @@ import breastcore.pipeline as pipeline  # noqa: E402
 from breastcore.datasets import open_dataset  # noqa: E402
 from breastcore.observation import MeasurementModel  # noqa: E402
 from breastcore.workflow_config import validate_config  # noqa: E402
-from breastcore.workflow_plan import Plan  # noqa: E402
+from breastcore.workflow_plan import Plan, spec_key  # noqa: E402
 
 
 def table1_runs(level, starts, offsets):
@@ -44,19 +52,82 @@ def table1_runs(level, starts, offsets):
     return plan, runs
 
 
-def main(argv=None):
+def ensure_input(plan, stage, path, built):
+    """Absolute path of the workflow file ``path`` of ``stage``: the workflow's if it exists, else built.
+
+    Parameters
+    ----------
+    plan : Plan
+        The job plan that names ``path`` and holds its spec.
+    stage : {"mesh", "solve", "measure"}
+        The workflow stage (rule) that writes ``path``.
+    path : str
+        The file as the plan names it, relative to the repository.
+    built : Path
+        Folder of the files built here, in the same layout as the workflow's.
+
+    Returns
+    -------
+    str
+        ``ROOT / path`` if the workflow wrote it; otherwise the file written under
+        ``built`` by the pipeline function the workflow's rule calls (same spec, same
+        config hash), after the files it depends on, found or built the same way. A
+        file built by an earlier run of this script is rebuilt, not trusted: it may
+        predate a change of the code (the workflow's own files are Snakemake's to keep
+        current).
+    """
+    existing = ROOT / path
+    if existing.exists():
+        return str(existing)
+    out = str(built / path)                               # str: run_measure stores its input's path as an attribute
+    spec = plan.jobs[stage][path]
+    if stage == "mesh":
+        tic = time.perf_counter()
+        pipeline.run_mesh(spec, out, spec_key(spec))
+    elif stage == "solve":
+        mesh = ensure_input(plan, "mesh", spec["mesh"], built)
+        tic = time.perf_counter()
+        pipeline.run_solve(spec, mesh, out, spec_key(spec))
+    elif stage == "measure":
+        solution = ensure_input(plan, "solve", spec["solution"], built) if "solution" in spec else None
+        tic = time.perf_counter()
+        pipeline.run_measure(spec, solution, out, spec_key(spec))
+    else:
+        raise ValueError(f"no builder for stage {stage!r}")
+    print(f"built {os.path.relpath(out, ROOT)} ({stage}, {time.perf_counter() - tic:.1f} s)", flush=True)
+    return out
+
+
+def parse_args(argv=None):
+    """The command line (``sys.argv[1:]`` if ``argv`` is None), with the defaults ``--quick`` implies."""
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    parser.add_argument("--level", default="medium-thin")
+    # None marks "not given": --quick fills in only what was not asked for.
+    parser.add_argument("--level", default=None, help="mesh level (default medium-thin; --quick: coarse)")
     parser.add_argument("--radii", default="0.05,0.15")
-    parser.add_argument("--starts", type=int, default=2)
-    parser.add_argument("--offsets", default=None)
+    parser.add_argument("--starts", type=int, default=None, help="starts per offset (default 2; --quick: 1)")
+    parser.add_argument("--offsets", default=None, help="comma-separated (default: all of the scene)")
+    parser.add_argument("--quick", action="store_true", help="coarse level, 1 start per offset (make bench)")
     args = parser.parse_args(argv)
-    header("bench_warm_radius")
+    args.level = args.level or ("coarse" if args.quick else "medium-thin")
+    args.starts = args.starts if args.starts is not None else (1 if args.quick else 2)
+    return args
+
+
+def main(argv=None):
+    args = parse_args(argv)
+    header("bench_warm_radius", [sys.argv[0]] + (argv if argv is not None else sys.argv[1:]))
     radii = [float(r) for r in args.radii.split(",")]
     offsets = [float(o) for o in args.offsets.split(",")] if args.offsets else None
     plan, runs = table1_runs(args.level, args.starts, offsets)
     out_dir = RESULTS / "warm_radius"
     out_dir.mkdir(parents=True, exist_ok=True)
+    built = out_dir / "inputs"
+    inputs = {}                                           # plan path -> file read; resolved before any clock starts
+    for run in runs:
+        spec = plan.jobs["identify"][run["identification"]]
+        for stage, key in (("measure", "measurements"), ("mesh", "mesh")):
+            if spec[key] not in inputs:
+                inputs[spec[key]] = ensure_input(plan, stage, spec[key], built)
 
     class Radius(MeasurementModel):                       # run_identify builds its own MeasurementModel
         radius = 0.05
@@ -72,7 +143,7 @@ def main(argv=None):
             Radius.radius = radius
             out = out_dir / f"{args.level}-{run['offset']}-{run['start']}-{radius}.nc"
             tic = time.perf_counter()
-            pipeline.run_identify(spec, spec["measurements"], spec["mesh"], out)
+            pipeline.run_identify(spec, inputs[spec["measurements"]], inputs[spec["mesh"]], out)
             seconds = time.perf_counter() - tic
             with open_dataset(out) as ds:
                 rows.append([run["offset"], run["start"], radius, f"{seconds:.1f}", ds.attrs["iterations"],

@@ -1,0 +1,122 @@
+"""``make bench`` runs on a fresh clone: every benchmark script parses the flags the
+Makefile passes it, needs no positional argument and no workflow output.
+
+The tables themselves are not checked here (they are measurements, in
+``docs/benchmarks.md``); what is checked is what made ``make bench`` fail on a fresh
+clone: a script reading ``results/mesh/<level>.nc`` or another workflow file, and a
+script with a required positional argument.
+"""
+
+import importlib.util
+import re
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+SCRIPTS = sorted((ROOT / "benchmarks").glob("bench_*.py"))
+MAKEFILE = (ROOT / "Makefile").read_text()
+
+
+def load(path):
+    """Import a benchmark script as a module (its own ``sys.path`` set-up runs)."""
+    spec = importlib.util.spec_from_file_location(f"benchscript_{path.stem}", path)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def make_flags(target):
+    """The flags the Makefile's ``target`` passes every script (``target: BENCH_FLAGS = ...``)."""
+    match = re.search(rf"^{re.escape(target)}: BENCH_FLAGS =(.*)$", MAKEFILE, re.M)
+    assert match, f"no BENCH_FLAGS for {target} in the Makefile"
+    return match.group(1).split()
+
+
+def test_make_bench_runs_every_script_in_its_quick_mode():
+    assert len(SCRIPTS) >= 8
+    run = MAKEFILE.split("BENCH_RUN =")[1].split("\n\n")[0]
+    assert "benchmarks/bench_*.py" in run and "$(BENCH_FLAGS)" in run and "|| exit 1" in run
+    assert make_flags("bench") == ["--quick"]
+    assert make_flags("bench-full") == []
+    for target in ("bench", "bench-full"):
+        assert re.search(rf"^{re.escape(target)}: \$\(BIN\)/\.installed.*\n\t@\$\(BENCH_RUN\)$", MAKEFILE, re.M), target
+
+
+@pytest.mark.parametrize("script", SCRIPTS, ids=lambda p: p.stem)
+def test_script_accepts_the_makefile_flags_and_documents_quick(script):
+    module = load(script)
+    assert "--quick" in module.__doc__, "the docstring says what --quick runs"
+    assert module.parse_args(make_flags("bench")).quick is True          # an unknown flag would exit 2
+    assert module.parse_args(make_flags("bench-full")).quick is False    # no positional argument is required
+
+
+def test_help_works(capsys):
+    # One interpreter per script would cost seconds each; --help in-process exits 0 the same way.
+    for script in SCRIPTS:
+        with pytest.raises(SystemExit) as info:
+            load(script).main(["--help"])
+        assert info.value.code == 0, script.name
+        assert "--quick" in capsys.readouterr().out, script.name
+
+
+def test_quick_defaults_leave_the_full_defaults_alone():
+    """``--quick`` only fills what was not given; without it the full study's defaults hold."""
+    bench = {p.stem: load(p) for p in SCRIPTS}
+    ident = bench["bench_identify"].parse_args([])
+    assert (ident.bench, ident.levels, ident.paper_iterations, ident.paper_timeout) == ("all", "coarse,ultra-thin",
+                                                                                       10, 900.0)
+    ident = bench["bench_identify"].parse_args(["--quick", "--paper-iterations", "3"])
+    assert (ident.bench, ident.levels, ident.paper_iterations) == ("all", "coarse", 3)
+    assert bench["bench_cold_variants"].parse_args([]).level == "medium-thin"
+    assert bench["bench_cold_variants"].parse_args(["--quick", "--level", "thin"]).level == "thin"
+    assert bench["bench_factorization"].parse_args([]).levels[-1] == "fine50k"
+    assert "fine50k" not in bench["bench_factorization"].parse_args(["--quick"]).levels
+    assert bench["bench_projection"].parse_args([]).repeats == 7
+    assert bench["bench_forward"].parse_args(["--quick"]).repeats == 3
+    warm = bench["bench_warm_radius"].parse_args([])
+    assert (warm.level, warm.starts) == ("medium-thin", 2)
+    stab = bench["bench_stability"].parse_args(["--quick"])
+    assert stab.out.name == "stability_quick.csv"                       # never the full grid's table
+    assert bench["bench_stability"].parse_args([]).out.name == "stability.csv"
+
+
+def test_cold_variants_runs_in_a_copy_without_results(tmp_path):
+    """The script that read ``results/mesh/medium-thin.nc`` runs where no workflow ever ran.
+
+    A copy of ``benchmarks/`` alone is a repository root without ``results/`` (the
+    scripts find their root from their own path; breastcore is the installed package).
+    """
+    shutil.copytree(ROOT / "benchmarks", tmp_path / "benchmarks", ignore=shutil.ignore_patterns("results", "__pycache__"))
+    out = subprocess.run([sys.executable, "benchmarks/bench_cold_variants.py", "--quick", "--variants", "default"],
+                         cwd=tmp_path, capture_output=True, text=True, timeout=120)
+    assert out.returncode == 0, out.stderr[-2000:]
+    assert "### Cold solves on coarse" in out.stdout and "| default" in out.stdout
+    assert not (tmp_path / "results").exists()
+
+
+def test_warm_radius_builds_missing_inputs_with_the_workflow_stages(tmp_path, monkeypatch):
+    """Inputs missing from ``results/`` are built by mesh → solve → measure; present ones are used."""
+    from breastcore.datasets import open_dataset
+    from breastcore.workflow_config import validate_config
+    from breastcore.workflow_plan import Plan
+    warm = load(ROOT / "benchmarks" / "bench_warm_radius.py")
+    config = validate_config({"scenes": {"s": {
+        "kind": "synthetic", "truth_mesh": "coarse", "meshes": ["coarse"], "postures": ["fours"],
+        "measurement_set": "paper15", "sensitivity": "none"}}}, ROOT / "workflow/schemas/config.schema.yaml")
+    plan = Plan(config)
+    (measure_path, spec), = plan.jobs["measure"].items()
+    monkeypatch.setattr(warm, "ROOT", tmp_path / "clone")                # a root without results/
+    built = tmp_path / "built"
+    got = Path(warm.ensure_input(plan, "measure", measure_path, built))
+    assert got == built / measure_path
+    assert (built / spec["solution"]).exists() and (built / plan.jobs["solve"][spec["solution"]]["mesh"]).exists()
+    with open_dataset(got) as ds:
+        assert ds.attrs["config_hash"] == warm.spec_key(spec)            # as the workflow's measure rule writes it
+    workflow_file = tmp_path / "clone" / measure_path                    # the workflow's own file wins
+    workflow_file.parent.mkdir(parents=True)
+    shutil.copy(got, workflow_file)
+    assert Path(warm.ensure_input(plan, "measure", measure_path, built)) == workflow_file
