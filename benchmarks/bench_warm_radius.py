@@ -9,13 +9,13 @@ Usage::
 Takes the jobs of scene ``paper_table1`` (``config.yaml`` + ``config/paper.yaml``) on
 one mesh level, the first ``--starts`` random starts per offset, and runs each
 identification in this process (no Snakemake, so about 1 s less overhead per job than
-in the workflow) once per ``MeasurementModel.warm_radius``. ``--quick`` takes the
+in the workflow) once per ``IdentificationOptions.warm_radius``. ``--quick`` takes the
 coarse level and one start per offset, unless ``--level`` or ``--starts`` are given.
 
 The inputs (the level's mesh and the synthetic measurements, i.e. the truth mesh and
 solve on the reference level) are the workflow's files under ``results/`` when the
 paper scene has written them; the ones missing are built here by the workflow's own
-stage functions (``breastcore.pipeline.run_mesh``, ``run_solve``, ``run_measure``,
+stage functions (``breastcore.stages``: ``run_mesh``, ``run_solve``, ``run_measure``,
 same specs) into ``benchmarks/results/warm_radius/inputs/``, so a fresh clone needs
 no workflow run. Each identification is written to ``benchmarks/results/warm_radius/``.
 """
@@ -34,11 +34,14 @@ import yaml
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from benchmarks._common import RESULTS, ROOT, header, print_table  # noqa: E402
-import breastcore.pipeline as pipeline  # noqa: E402
+from breastcore.stages.identify import run_identify  # noqa: E402
+from breastcore.stages.measure import run_measure  # noqa: E402
+from breastcore.stages.mesh import run_mesh  # noqa: E402
+from breastcore.stages.solve import run_solve  # noqa: E402
 from breastcore.datasets import open_dataset  # noqa: E402
-from breastcore.observation import MeasurementModel  # noqa: E402
 from breastcore.workflow_config import validate_config  # noqa: E402
-from breastcore.workflow_plan import Plan, spec_key  # noqa: E402
+from breastcore.keys import spec_key  # noqa: E402
+from breastcore.workflow_plan import Plan  # noqa: E402
 
 
 def table1_runs(level, starts, offsets):
@@ -70,7 +73,7 @@ def ensure_input(plan, stage, path, built):
     -------
     str
         ``ROOT / path`` if the workflow wrote it; otherwise the file written under
-        ``built`` by the pipeline function the workflow's rule calls (same spec, same
+        ``built`` by the stage function the workflow's rule calls (same spec, same
         config hash), after the files it depends on, found or built the same way. A
         file built by an earlier run of this script is rebuilt, not trusted: it may
         predate a change of the code (the workflow's own files are Snakemake's to keep
@@ -83,15 +86,15 @@ def ensure_input(plan, stage, path, built):
     spec = plan.jobs[stage][path]
     if stage == "mesh":
         tic = time.perf_counter()
-        pipeline.run_mesh(spec, out, spec_key(spec))
+        run_mesh(spec, out, spec_key(spec))
     elif stage == "solve":
         mesh = ensure_input(plan, "mesh", spec["mesh"], built)
         tic = time.perf_counter()
-        pipeline.run_solve(spec, mesh, out, spec_key(spec))
+        run_solve(spec, mesh, out, spec_key(spec))
     elif stage == "measure":
         solution = ensure_input(plan, "solve", spec["solution"], built) if "solution" in spec else None
         tic = time.perf_counter()
-        pipeline.run_measure(spec, solution, out, spec_key(spec))
+        run_measure(spec, solution, out, spec_key(spec))
     else:
         raise ValueError(f"no builder for stage {stage!r}")
     print(f"built {os.path.relpath(out, ROOT)} ({stage}, {time.perf_counter() - tic:.1f} s)", flush=True)
@@ -129,21 +132,14 @@ def main(argv=None):
             if spec[key] not in inputs:
                 inputs[spec[key]] = ensure_input(plan, stage, spec[key], built)
 
-    class Radius(MeasurementModel):                       # run_identify builds its own MeasurementModel
-        radius = 0.05
-
-        def __init__(self, *a, **k):
-            super().__init__(*a, **{**k, "warm_radius": self.radius})
-
-    pipeline.MeasurementModel = Radius
     rows = []
     for run in runs:
         spec = plan.jobs["identify"][run["identification"]]
-        for radius in radii:
-            Radius.radius = radius
+        for radius in radii:                              # the radius is an identification option
+            job = {**spec, "identification": {**spec["identification"], "warm_radius": radius}}
             out = out_dir / f"{args.level}-{run['offset']}-{run['start']}-{radius}.nc"
             tic = time.perf_counter()
-            pipeline.run_identify(spec, inputs[spec["measurements"]], inputs[spec["mesh"]], out)
+            run_identify(job, inputs[spec["measurements"]], inputs[spec["mesh"]], out)
             seconds = time.perf_counter() - tic
             with open_dataset(out) as ds:
                 rows.append([run["offset"], run["start"], radius, f"{seconds:.1f}", ds.attrs["iterations"],

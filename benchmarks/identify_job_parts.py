@@ -7,7 +7,7 @@ Usage::
 
 Runs, in this process, the identification jobs of ``config/paper.yaml`` named as
 ``level:n`` (the n-th job of that level with ``cost_rtol``, in plan order) through
-``breastcore.pipeline.run_identify``, as the workflow's ``identify`` rule does, and
+``breastcore.stages.identify.run_identify``, as the workflow's ``identify`` rule does, and
 prints the job's time and the part spent in the final branch check (a cold re-solve of
 every posture at the estimate, ``identify._check_branch``). Medians of ``--repeats``.
 The datasets go to a temporary folder. Needs the scene's meshes and measurements in
@@ -29,7 +29,8 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 from benchmarks._common import header, print_table  # noqa: E402
-from breastcore import identify, pipeline  # noqa: E402
+from breastcore import identify  # noqa: E402
+from breastcore.stages.identify import run_identify  # noqa: E402
 from breastcore.workflow_config import validate_config  # noqa: E402
 from breastcore.workflow_plan import Plan  # noqa: E402
 
@@ -62,7 +63,7 @@ def timed_job(spec, results, out):
     try:
         tic = time.perf_counter()
         inputs = [str(Path(results) / Path(spec[key]).relative_to("results")) for key in ("measurements", "mesh")]
-        pipeline.run_identify(spec, *inputs, out)
+        run_identify(spec, *inputs, out)
         return time.perf_counter() - tic, sum(spent)
     finally:
         identify._check_branch = check
