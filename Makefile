@@ -3,6 +3,7 @@ PYTHON ?= python3
 VENV   ?= .venv
 BIN    := $(VENV)/bin
 CORES  ?= 2
+ARGS   ?=
 
 .PHONY: run test test-slow bench bench-full report clean-results
 
@@ -12,8 +13,10 @@ $(BIN)/.installed: pyproject.toml
 	$(BIN)/python -m pip install --quiet -e ".[test]"
 	touch $@
 
+# snakemake --cores 2, after clearing what a killed run left (its lock, its unfinished jobs):
+# see breastcore/workflow_run.py. More Snakemake arguments: make run ARGS="--configfile my.yaml".
 run: $(BIN)/.installed          ## run the default scenes of config.yaml
-	$(BIN)/snakemake --cores $(CORES)
+	$(BIN)/python -m breastcore.workflow_run --cores $(CORES) $(ARGS)
 
 test: $(BIN)/.installed         ## the unit suite (< 10 min on 2 cores)
 	$(BIN)/pytest -n $(CORES) -q

@@ -3,14 +3,27 @@ import os
 
 from snakemake.utils import min_version
 
-from breastcore.workflow_config import check_config_files, validate_config
+from breastcore.workflow_config import (check_config_files, check_overlays, config_errors_exit, drop_keys,
+                                        validate_config)
 
 min_version("8.0")
 
+# Every config error is one line, "ConfigError: config ...", and exit status 1: without
+# config_errors_exit Snakemake would print the Snakefile line and the frames that raised it.
+# config.yaml is read here first because Snakemake's loader, on a syntax error, names
+# neither the file nor the line.
+with config_errors_exit():
+    check_config_files(["config.yaml"] if os.path.exists("config.yaml") else [])
+
 configfile: "config.yaml"
 
-check_config_files(workflow.configfiles)
-config.update(validate_config(config, os.path.join(workflow.basedir, "workflow/schemas/config.schema.yaml")))
+with config_errors_exit():
+    check_config_files(workflow.configfiles)
+    # A --configfile copy that leaves out a key of config.yaml would run config.yaml's value.
+    # (Snakemake 8 has no --replace-workflow-config, added by snakemake/snakemake#3381: it always merges)
+    drop_keys(config, check_overlays("config.yaml", workflow.config_settings.configfiles,
+                                     getattr(workflow.config_settings, "replace_workflow_config", False)))
+    config.update(validate_config(config, os.path.join(workflow.basedir, "workflow/schemas/config.schema.yaml")))
 
 include: "workflow/rules/common.smk"
 include: "workflow/rules/mesh.smk"

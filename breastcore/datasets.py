@@ -10,7 +10,7 @@ from __future__ import annotations
 import datetime
 import json
 import os
-import tempfile
+import secrets
 from pathlib import Path
 
 import numpy as np
@@ -27,15 +27,15 @@ MERIDIANS = ("S", "I", "M", "L")
 def write_netcdf(ds: xr.Dataset, path) -> Path:
     """Write ``ds`` to ``path`` atomically: a temporary file in the same folder, then a rename.
 
-    Readers never see a half-written file. Missing parent folders are created.
+    Readers never see a half-written file. Missing parent folders are created. The file's
+    mode follows the umask, as for any file the workflow writes (0644 under umask 022).
     """
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     missing = [name for name, var in ds.variables.items() if "units" not in var.attrs or "long_name" not in var.attrs]
     if missing:
         raise ValueError(f"variables without units/long_name: {missing}")
-    fd, tmp = tempfile.mkstemp(prefix=path.name + ".", suffix=".tmp", dir=path.parent)
-    os.close(fd)
+    tmp = _new_temporary(path)
     try:
         ds.to_netcdf(tmp, engine="netcdf4")
         os.replace(tmp, path)
@@ -43,6 +43,22 @@ def write_netcdf(ds: xr.Dataset, path) -> Path:
         if os.path.exists(tmp):
             os.unlink(tmp)
     return path
+
+
+def _new_temporary(path: Path) -> str:
+    """Create an empty, unused ``<name>.<random>.tmp`` beside ``path``, with mode 0666 less the umask.
+
+    Not ``tempfile.mkstemp``: its file is mode 0600 whatever the umask, and netCDF, which
+    truncates the file it is given, keeps that mode, so the renamed dataset was 0600.
+    Opening with ``O_EXCL`` and mode 0666 lets the kernel apply the umask.
+    """
+    while True:
+        tmp = str(path.with_name(f"{path.name}.{secrets.token_hex(4)}.tmp"))
+        try:
+            os.close(os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666))
+            return tmp
+        except FileExistsError:
+            continue
 
 
 def provenance(stage: str, parameters=None, config_hash: str | None = None, **extra) -> dict:

@@ -6,7 +6,9 @@ key, e.g. ``config key scenes.alice.postures.standing.volume: -5 is not > 0``.
 
 from __future__ import annotations
 
+import contextlib
 import copy
+import json
 import math
 import os
 import re
@@ -83,20 +85,205 @@ def _repeated_key(node, where="", seen=None):
             _repeated_key(item, f"{where}[{i}]", seen)
 
 
-def check_config_files(paths) -> None:
-    """Refuse a config file with a repeated key (e.g. two scenes of one name): Snakemake's
-    loader, like YAML, silently keeps the last. Raises ConfigError naming the key and lines.
+def _syntax_error(path, err: yaml.YAMLError) -> ConfigError:
+    """One line naming the file, line and column of a YAML syntax error, and the problem."""
+    mark = getattr(err, "problem_mark", None)
+    problem = getattr(err, "problem", None) or str(err).splitlines()[0]
+    if "'\\t'" in problem:                       # PyYAML's words for a tab: name it plainly
+        problem = "a tab, which YAML does not allow as indentation (indent with spaces)"
+    where = f", line {mark.line + 1}, column {mark.column + 1}" if mark is not None else ""
+    context, context_mark = getattr(err, "context", None), getattr(err, "context_mark", None)
+    if context and context_mark is not None and context_mark.line != getattr(mark, "line", None):
+        problem += f" ({context} that starts at line {context_mark.line + 1})"
+    return ConfigError(f"config file {path}{where}: {problem}")
 
-    A file that does not parse as YAML (e.g. JSON indented with tabs, which Snakemake
-    accepts) is left to Snakemake's own loader.
+
+def check_config_files(paths) -> None:
+    """Refuse a config file that is not valid YAML, or that repeats a key.
+
+    Snakemake's own loader says only "Config file is not valid JSON or YAML", with
+    neither the file nor the line; and it keeps the last of two equal keys (e.g. two
+    scenes of one name), as YAML does, silently.
+
+    Parameters
+    ----------
+    paths : iterable of str or Path
+        Config files, read as Snakemake reads them: JSON first, then YAML (so JSON
+        indented with tabs, which YAML refuses, is accepted).
+
+    Raises
+    ------
+    ConfigError
+        Naming the file, line and column of a syntax error, or the repeated key and
+        both of its lines.
     """
     for path in paths:
-        with open(path, encoding="utf-8") as stream:
+        with open(path, encoding="utf-8") as stream:          # a stream: the marks carry its name
             try:
                 tree = yaml.compose(stream, Loader=yaml.SafeLoader)
-            except yaml.YAMLError:
+            except yaml.YAMLError as err:
+                stream.seek(0)
+                try:
+                    json.load(stream)
+                except ValueError:
+                    raise _syntax_error(path, err) from None
                 continue
         _repeated_key(tree)
+
+
+def _load_config_file(path) -> dict:
+    """A config file's content, read as Snakemake reads it (JSON first, then YAML)."""
+    text = Path(path).read_text(encoding="utf-8")
+    try:
+        data = json.loads(text)
+    except ValueError:
+        data = yaml.safe_load(text)
+    return data if isinstance(data, dict) else {}
+
+
+def _left_out(base, overlay, where):
+    """Key paths (tuples) of the mapping ``base`` that the mapping ``overlay`` does not give, recursively."""
+    missing = []
+    for key, value in base.items():
+        path = (*where, key)
+        if key not in overlay:
+            missing.append(path)
+        elif isinstance(value, dict) and isinstance(overlay[key], dict):
+            missing += _left_out(value, overlay[key], path)
+    return missing
+
+
+def _null_drops(base, overlay, where=()):
+    """Key paths that ``overlay`` sets to null and ``base`` gives: the keys it drops on purpose."""
+    drops = []
+    for key, value in overlay.items():
+        if isinstance(base, dict) and key in base:
+            if value is None and base[key] is not None:
+                drops.append((*where, key))
+            elif isinstance(value, dict):
+                drops += _null_drops(base[key], value, (*where, key))
+    return drops
+
+
+def _merge(config, overlay):
+    """Snakemake's merge of a config file into the config (``snakemake.utils.update_config``)."""
+    for key, value in overlay.items():
+        if isinstance(value, dict):
+            config[key] = _merge(config[key] if isinstance(config.get(key), dict) else {}, value)
+        else:
+            config[key] = value
+    return config
+
+
+def check_overlays(base_path, overlay_paths, replace=False) -> list:
+    """Refuse a ``--configfile`` that redefines a scene or section of ``config.yaml`` but
+    leaves out some of its keys.
+
+    Snakemake merges each ``--configfile`` into ``config.yaml`` key by key, so a key that a
+    copy leaves out (a posture, a measured quantity) silently keeps ``config.yaml``'s
+    value: the copy runs what it no longer says. Scenes that ``config.yaml`` does not have,
+    and top-level keys, are added or replaced as usual; that is what the opt-in configs of
+    ``config/`` do. A list is replaced whole, so it cannot leave anything behind.
+
+    Parameters
+    ----------
+    base_path : str or Path
+        The Snakefile's ``configfile`` (``config.yaml``); a missing file counts as empty.
+    overlay_paths : sequence of str or Path
+        The ``--configfile`` files, in the order Snakemake merges them; each one is
+        compared with ``config.yaml`` merged with the files before it.
+    replace : bool
+        ``--replace-workflow-config``: Snakemake discards ``config.yaml``, so the files are
+        compared only with the files before them.
+
+    Returns
+    -------
+    list of tuple of str
+        The key paths that a file sets to ``null`` to drop the key on purpose; the caller
+        removes them from the merged config (:func:`drop_keys`).
+
+    Raises
+    ------
+    ConfigError
+        Naming every key left out, the file that gives it and the file that leaves it out.
+    """
+    sources = [] if replace or not os.path.exists(base_path) else [(str(base_path), _load_config_file(base_path))]
+    merged = copy.deepcopy(sources[0][1]) if sources else {}
+    drops = []
+    for path in overlay_paths:
+        overlay = _load_config_file(path)
+        path = _shown(path)
+        missing = []
+        for key, value in overlay.items():
+            base = merged.get(key)
+            if not (isinstance(value, dict) and isinstance(base, dict)):
+                continue
+            if key == "scenes":                                   # scenes are added; a redefined one is compared
+                for name, scene in value.items():
+                    if isinstance(scene, dict) and isinstance(base.get(name), dict):
+                        missing += _left_out(base[name], scene, ("scenes", name))
+            else:
+                missing += _left_out(base, value, (key,))
+        if missing:
+            origins = " and ".join(name for name, tree in sources if any(_gives(tree, m) for m in missing))
+            keys = ", ".join(".".join(map(str, m)) for m in missing)
+            one = len(missing) == 1
+            raise ConfigError(
+                f"config key{'' if one else 's'} {keys}: in {origins} but left out of {path}, which Snakemake "
+                f"merges into {origins} key by key, so {origins}'s value{'' if one else 's'} would run; drop "
+                f"{'it' if one else 'each'} with null in {path} ({missing[0][-1]}: null), or run {path} alone "
+                f"with --replace-workflow-config")
+        drops += _null_drops(merged, overlay)
+        _merge(merged, overlay)
+        for drop in drops:
+            _pop(merged, drop)
+        sources.append((str(path), overlay))
+    return drops
+
+
+def _shown(path):
+    """``path`` relative to the working folder when inside it (Snakemake makes --configfile paths absolute)."""
+    relative = os.path.relpath(path)
+    return str(path) if relative.startswith("..") else relative
+
+
+def _gives(tree, keys):
+    for key in keys:
+        if not isinstance(tree, dict) or key not in tree:
+            return False
+        tree = tree[key]
+    return True
+
+
+def _pop(config, path):
+    node = config
+    for key in path[:-1]:
+        node = node.get(key) if isinstance(node, dict) else None
+    if isinstance(node, dict) and node.get(path[-1], 0) is None:
+        del node[path[-1]]
+
+
+def drop_keys(config, paths) -> None:
+    """Remove from ``config``, in place, each key path whose value is null (see :func:`check_overlays`).
+
+    A later file that gave the key a value again keeps it.
+    """
+    for path in paths:
+        _pop(config, path)
+
+
+@contextlib.contextmanager
+def config_errors_exit():
+    """Context manager: a :class:`ConfigError` ends the program with its one line and status 1.
+
+    Snakemake prints an exception raised in the Snakefile with the Snakefile's line and
+    3-8 ``File "...", line ...`` frames of the code that raised it; a ``SystemExit`` it
+    lets through, and Python prints its message alone, on stderr.
+    """
+    try:
+        yield
+    except ConfigError as err:
+        raise SystemExit(f"ConfigError: {err}") from None
 
 
 def _check(instance, schema, root, where):

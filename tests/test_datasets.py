@@ -1,5 +1,8 @@
 """write_netcdf: atomic (a temporary name, then a rename) and refusing unlabelled variables."""
 
+import os
+import stat
+
 import numpy as np
 import pytest
 import xarray as xr
@@ -50,3 +53,19 @@ def test_a_variable_without_units_is_refused_before_writing(tmp_path):
     with pytest.raises(ValueError, match=r"\['area'\]"):
         write_netcdf(ds, tmp_path / "a.nc")
     assert list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.parametrize("umask, mode", [(0o022, 0o644), (0o077, 0o600), (0o002, 0o664)], ids=["022", "077", "002"])
+def test_the_file_mode_follows_the_umask(tmp_path, umask, mode):
+    """A netCDF dataset gets the mode of the workflow's other files (PNG, CSV, VTU), 0666 less
+    the umask; its temporary file was mode 0600 whatever the umask (issue #19, item 9)."""
+    old = os.umask(umask)
+    try:
+        write_netcdf(_dataset(1e-4), tmp_path / "a.nc")
+        write_netcdf(_dataset(2e-4), tmp_path / "a.nc")           # replacing a file: the same
+        with open(tmp_path / "b.csv", "w") as stream:             # what any other writer gets
+            stream.write("x\n")
+    finally:
+        os.umask(old)
+    assert stat.S_IMODE((tmp_path / "a.nc").stat().st_mode) == mode
+    assert stat.S_IMODE((tmp_path / "b.csv").stat().st_mode) == mode

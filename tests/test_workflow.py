@@ -4,6 +4,7 @@ import copy
 import json
 import os
 import re
+import stat
 from collections import Counter
 import subprocess
 import sys
@@ -153,6 +154,16 @@ def test_logs_have_one_line_per_newton_and_identification_iteration(workdir):
         log = (results / "logs/identify" / (path.stem + ".log")).read_text()
         with xr.open_dataset(path) as ds:
             assert log.count("identify it=") == ds.sizes["iteration"] > 1, path
+
+
+def test_every_output_file_follows_the_umask(workdir):
+    """netCDF datasets too: they were mode 0600 whatever the umask (issue #19, item 9)."""
+    umask = os.umask(0)
+    os.umask(umask)
+    modes = {p.relative_to(workdir).as_posix(): stat.S_IMODE(p.stat().st_mode)
+             for p in (workdir / "results").rglob("*") if p.is_file()}
+    assert {Path(p).suffix for p in modes} >= {".nc", ".png", ".csv", ".vtu", ".log"}
+    assert {p: oct(m) for p, m in modes.items() if m != 0o666 & ~umask} == {}
 
 
 def test_second_run_does_nothing(workdir):

@@ -13,6 +13,7 @@ from breastcore.workflow_config import ConfigError, validate_config
 
 ROOT = Path(__file__).resolve().parents[1]
 SCHEMA = ROOT / "workflow/schemas/config.schema.yaml"
+SNAKEMAKE = str(Path(sys.executable).parent / "snakemake")
 DEFAULT = yaml.safe_load((ROOT / "config.yaml").read_text())
 
 
@@ -112,15 +113,67 @@ def _repeated_scene():
     return "".join(lines[:at] + ["  forward_demo:\n", "    kind: forward\n", "    mesh: coarse\n"] + lines[at:])
 
 
-@pytest.mark.parametrize("text, key", [(_negative_volume, "scenes.example_patient.postures.standing.volume"),
-                                       (_repeated_scene, "scenes.forward_demo: given twice")])
-def test_snakemake_stops_before_any_job_on_a_bad_config(tmp_path, text, key):
+def _dry_run(workdir, *args):
+    return subprocess.run([SNAKEMAKE, "-n", "-s", str(ROOT / "Snakefile"), "-d", str(workdir), *args],
+                          capture_output=True, text=True)
+
+
+def _tab_indent():
+    return (ROOT / "config.yaml").read_text().replace("    kind: forward\n", "\tkind: forward\n")
+
+
+def _unclosed_list():
+    return (ROOT / "config.yaml").read_text().replace("meshes: [coarse, medium]\n", "meshes: [coarse, medium\n", 1)
+
+
+def _line_of(text, fragment):
+    return next(i for i, line in enumerate(text().splitlines(), 1) if fragment in line)
+
+
+@pytest.mark.parametrize("text, message", [
+    (_negative_volume, r"config key scenes\.example_patient\.postures\.standing\.volume: -5 is less than .*"),
+    (_repeated_scene, r"config key scenes\.forward_demo: given twice, at lines .*"),
+    (_tab_indent, rf"config file config\.yaml, line {_line_of(_tab_indent, chr(9))}, column 1: a tab, which YAML "
+                  r"does not allow as indentation \(indent with spaces\)"),
+    (_unclosed_list, rf"config file config\.yaml, line {_line_of(_unclosed_list, '[coarse, medium') + 1}, column "
+                     rf"\d+: expected ',' or '\]', but got ':' \(while parsing a flow sequence that starts at line "
+                     rf"{_line_of(_unclosed_list, '[coarse, medium')}\)")],
+    ids=["negative volume", "repeated scene", "tab indent", "unclosed list"])
+def test_snakemake_stops_before_any_job_on_a_bad_config_with_one_line(tmp_path, text, message):
+    """A real dry run: the error is one line on stderr, naming the key, or the file and line of
+    a YAML syntax error; no Snakemake "File ..., line ..." frames (issue #19, items 7 and 10)."""
     (tmp_path / "config.yaml").write_text(text())
-    out = subprocess.run([str(Path(sys.executable).parent / "snakemake"), "-n", "-s", str(ROOT / "Snakefile"),
-                          "-d", str(tmp_path)], capture_output=True, text=True)
-    assert out.returncode != 0
-    assert key in out.stdout + out.stderr
+    out = _dry_run(tmp_path)
+    assert out.returncode == 1
+    assert len(out.stderr.splitlines()) == 1 and re.fullmatch("ConfigError: " + message, out.stderr.strip()), \
+        out.stderr
+    assert 'File "' not in out.stdout + out.stderr
     assert not (tmp_path / "results").exists()
+
+
+def test_a_bad_config_on_the_command_line_is_one_line_too(tmp_path):
+    (tmp_path / "config.yaml").write_text((ROOT / "config.yaml").read_text())
+    out = _dry_run(tmp_path, "--config", "scenes={'x': {'kind': 'forward', 'mesh': 'huge'}}")
+    assert out.returncode == 1
+    assert out.stderr.splitlines() == ["ConfigError: config key scenes.x.mesh: unknown mesh level 'huge'; known: "
+                                       "coarse, medium, medium-thin, thin, very-thin, ultra-thin, reference, "
+                                       "fine10k, fine50k"]
+    assert 'File "' not in out.stdout
+
+
+def test_a_syntax_error_names_the_file_and_line(tmp_path):
+    from breastcore.workflow_config import check_config_files
+    path = tmp_path / "c.yaml"
+    for text, where in [("scenes:\n  a:\n\tkind: forward\n", "line 3, column 1: a tab"),
+                        ("a: 1\n b: 2\n", "line 2, column 3: mapping values are not allowed here"),
+                        ('a: "x\n', "line 2, column 1: found unexpected end of stream (while scanning a quoted "
+                                     "scalar that starts at line 1)"),
+                        ("a: *x\n", "line 1, column 4: found undefined alias 'x'")]:
+        path.write_text(text)
+        with pytest.raises(ConfigError) as info:
+            check_config_files([path])
+        assert str(info.value) == f"config file {path}, {where}" or str(info.value).startswith(
+            f"config file {path}, {where}"), str(info.value)
 
 
 def test_repeated_key_is_refused_with_both_lines(tmp_path):
@@ -301,3 +354,113 @@ def test_fixed_iterations_only_with_gauss_newton():
     config["scenes"]["paper_synthetic"].update(identification={"fixed_iterations": True},
                                               methods=[{"name": "gn", "method": "gauss-newton"}])
     assert validate_config(config, SCHEMA)["scenes"]["paper_synthetic"]["identification"]["fixed_iterations"]
+
+
+def _write_copy(tmp_path, edit, name="copy.yaml"):
+    """config.yaml in ``tmp_path``, and a copy of it edited by ``edit``."""
+    (tmp_path / "config.yaml").write_text((ROOT / "config.yaml").read_text())
+    config = copy.deepcopy(DEFAULT)
+    edit(config)
+    (tmp_path / name).write_text(yaml.safe_dump(config, sort_keys=False))
+    return str(tmp_path / name)
+
+
+def _planned(out):
+    return set(re.findall(r"^    output: (.*)$", out.stdout, re.M))
+
+
+@pytest.mark.parametrize("edit, key", [
+    (lambda c: c["scenes"]["example_patient"]["postures"].pop("fours"), "scenes.example_patient.postures.fours"),
+    (lambda c: c["scenes"]["example_patient"]["postures"]["bent45"].pop("height"),
+     "scenes.example_patient.postures.bent45.height"),
+    (lambda c: c["constants"].pop("chassaignac"), "constants.chassaignac")],
+    ids=["posture", "quantity", "section key"])
+def test_a_partial_configfile_copy_is_refused_naming_the_key(tmp_path, edit, key):
+    """A real dry run of a copy of config.yaml with a key left out, which Snakemake's merge
+    would silently restore from config.yaml (issue #19, item 5)."""
+    copy_file = _write_copy(tmp_path, edit)
+    out = _dry_run(tmp_path, "--configfile", copy_file)
+    assert out.returncode == 1, out.stdout[-2000:]
+    assert out.stderr.splitlines() == [
+        f"ConfigError: config key {key}: in config.yaml but left out of copy.yaml, which Snakemake merges into "
+        f"config.yaml key by key, so config.yaml's value would run; drop it with null in copy.yaml "
+        f"({key.rsplit('.', 1)[-1]}: null), or run copy.yaml alone with --replace-workflow-config"]
+
+
+def test_a_copy_drops_a_posture_with_null_or_runs_alone_with_replace_workflow_config(tmp_path):
+    shape = "results/scenes/example_patient/shape_{}.png"
+    dropped = _write_copy(tmp_path, lambda c: c["scenes"]["example_patient"]["postures"].update(fours=None),
+                          "dropped.yaml")
+    out = _dry_run(tmp_path, "--configfile", dropped)
+    assert out.returncode == 0, out.stderr
+    assert shape.format("standing") in _planned(out) and shape.format("fours") not in _planned(out)
+    alone = _write_copy(tmp_path, lambda c: c["scenes"]["example_patient"]["postures"].pop("fours"), "alone.yaml")
+    out = _dry_run(tmp_path, "--configfile", alone, "--replace-workflow-config")
+    assert out.returncode == 0, out.stderr
+    assert shape.format("standing") in _planned(out) and shape.format("fours") not in _planned(out)
+
+
+def _readme_opt_in_commands():
+    """The --configfile lists of the README's opt-in commands, with their targets."""
+    text = (ROOT / "README.md").read_text()
+    return sorted({(m.group(1).strip(), m.group(2).strip())
+                   for m in re.finditer(r"snakemake --cores 2 ([\w ]*)--configfile ([\w/. -]+?\.yaml)(?=`|\s*(?:#|$))",
+                                        text, re.M)})
+
+
+def test_the_readme_names_the_opt_in_commands():
+    commands = _readme_opt_in_commands()
+    assert ("results_page", "config/paper.yaml") in commands and ("", "config/stability.yaml") in commands
+    assert ("results_page", "config/paper.yaml config/evidence.yaml config/error_vs_runtime.yaml "
+                            "config/results.yaml") in commands
+
+
+@pytest.mark.parametrize("target, files", _readme_opt_in_commands())
+def test_the_opt_in_configs_still_merge_into_config_yaml(tmp_path, target, files):
+    """They add scenes and set run_scenes: a real dry run of each of the README's commands."""
+    (tmp_path / "config.yaml").write_text((ROOT / "config.yaml").read_text())
+    out = _dry_run(tmp_path, *target.split(), "--configfile", *(str(ROOT / f) for f in files.split()))
+    assert out.returncode == 0, out.stderr[-2000:]
+
+
+def test_check_overlays_compares_each_file_with_what_is_merged_before_it(tmp_path):
+    from breastcore.workflow_config import check_overlays, drop_keys
+    base = tmp_path / "config.yaml"
+    base.write_text("scenes:\n  a: {kind: forward, mesh: coarse, postures: [standing]}\nsolver: {method: newton}\n")
+    (tmp_path / "one.yaml").write_text("scenes:\n  b: {kind: forward, mesh: medium}\n")
+    (tmp_path / "two.yaml").write_text("scenes:\n  b: {kind: forward}\n")
+    (tmp_path / "drop.yaml").write_text("scenes:\n  a: {mesh: null, kind: forward, postures: [fours]}\n")
+    (tmp_path / "again.yaml").write_text("scenes:\n  a: {mesh: medium, kind: forward, postures: [fours]}\n")
+    (tmp_path / "gone.yaml").write_text("scenes:\n  a: null\n")
+    (tmp_path / "partial.yaml").write_text("scenes:\n  a: {kind: forward}\n")
+    one, two, drop, again, gone = (str(tmp_path / f"{n}.yaml") for n in ("one", "two", "drop", "again", "gone"))
+    assert check_overlays(base, [one]) == []                      # a new scene: added
+    with pytest.raises(ConfigError, match=rf"^config key scenes\.b\.mesh: in {re.escape(one)} but left out of "
+                                          rf"{re.escape(two)}"):
+        check_overlays(base, [one, two])                          # compared with the file before it
+    with pytest.raises(ConfigError, match=r"^config key scenes\.b\.mesh"):
+        check_overlays(base, [one, two], replace=True)            # without config.yaml too
+    with pytest.raises(ConfigError, match=r"^config keys scenes\.a\.mesh, scenes\.a\.postures: in .*config\.yaml but"):
+        check_overlays(base, [two, str(tmp_path / "partial.yaml")])
+    assert check_overlays(base, [two], replace=True) == []       # config.yaml discarded: nothing left out
+    config = {"scenes": {"a": {"kind": "forward", "mesh": None, "postures": ["fours"]}}}
+    drops = check_overlays(base, [drop])
+    assert drops == [("scenes", "a", "mesh")]
+    drop_keys(config, drops)
+    assert config == {"scenes": {"a": {"kind": "forward", "postures": ["fours"]}}}
+    config = {"scenes": {"a": {"kind": "forward", "mesh": "medium", "postures": ["fours"]}}}
+    drop_keys(config, check_overlays(base, [drop, again]))       # given again by a later file: kept
+    assert config["scenes"]["a"]["mesh"] == "medium"
+    assert check_overlays(base, [gone]) == [("scenes", "a")]     # a scene dropped whole
+    assert check_overlays(tmp_path / "missing.yaml", [two]) == []
+
+
+def test_a_config_error_ends_the_program_with_one_line():
+    from breastcore.workflow_config import config_errors_exit
+    with pytest.raises(SystemExit) as info:
+        with config_errors_exit():
+            raise ConfigError("config key x: bad")
+    assert info.value.code == "ConfigError: config key x: bad"
+    with pytest.raises(KeyError):                                 # any other error is Snakemake's to print
+        with config_errors_exit():
+            raise KeyError("x")
