@@ -10,7 +10,8 @@ from .measure import QUANTITIES
 from .mesh import refold
 from .parameters import IDENTIFIED, PARAMETER_INFO
 from .solution import DIAGNOSTICS
-from .uncertainty import Z95, conditioning, intervals, log_covariance
+from .uncertainty import DETERMINED_FACTOR, Z95, conditioning, determined, interval_decades, intervals, log_covariance
+from .verdict import fit_verdict
 
 _PARAM_UNITS = " ".join(PARAMETER_INFO[p].units for p in IDENTIFIED)
 
@@ -33,6 +34,7 @@ def identification_dataset(result, mm, target, problem, *, initial, truth=None, 
     low, high = intervals(estimate, cov_log)
     singular, rank, cond = conditioning(np.sqrt(weights)[:, None] * J)
     postures = [p.name for p in target.postures]
+    verdict = verdict_of(result, target, options.noise)
     data = {
         "parameters": _var(("iteration", "parameter"), np.array(result.parameters), _PARAM_UNITS,
                            "parameter values per accepted iteration; units per parameter in parameter_units"),
@@ -48,8 +50,17 @@ def identification_dataset(result, mm, target, problem, *, initial, truth=None, 
                                f"covariance of ln Λ under {options.noise:.0%} relative 1σ measurement noise"),
         "covariance": _var(("parameter", "parameter_"), cov_log * np.outer(estimate, estimate),
                            "products of parameter_units", "covariance of Λ (linearised)"),
-        "interval_low": _var(("parameter",), low, _PARAM_UNITS, f"lower bound of the {Z95:.2f}σ (95 %) interval"),
-        "interval_high": _var(("parameter",), high, _PARAM_UNITS, f"upper bound of the {Z95:.2f}σ (95 %) interval"),
+        "interval_low": _var(("parameter",), low, _PARAM_UNITS, f"lower bound of the {Z95:.2f}σ (95 %) interval "
+                             "(NaN where the parameter is not determined)"),
+        "interval_high": _var(("parameter",), high, _PARAM_UNITS, f"upper bound of the {Z95:.2f}σ (95 %) interval "
+                              "(NaN where the parameter is not determined)"),
+        "interval_decades": _var(("parameter",), interval_decades(cov_log), "1",
+                                 "width of the 95 % interval, log10(high / low)"),
+        "determined": _var(("parameter",), determined(cov_log).astype(np.int8), "1",
+                           f"1 if the 95 % interval spans at most a factor {DETERMINED_FACTOR:g}; 0: not determined "
+                           "by these measurements"),
+        "standardised_residual": _var(("posture", "quantity"), np.asarray(result.measurement_error[-1]) / options.noise,
+                                      "1", "(M(Λ̂)/M̄ − 1) / σ at the estimate, σ the noise model's relative 1σ"),
         "singular_values": _var(("singular",), singular, "1", "singular values of the weighted relative Jacobian"),
         "target": _var(("posture", "quantity"), target.values, "m3 m2 m m m", "measured values M̄"),
         "weight": _var(("posture", "quantity"), target.weights, "1", "weight w_i of the measurement in the cost"),
@@ -90,7 +101,15 @@ def identification_dataset(result, mm, target, problem, *, initial, truth=None, 
                           measurement_set=target.measurement_set, forward_solves=result.forward_solves,
                           failed_solves=result.failed_solves, jacobian_rank=rank, condition_number=cond,
                           branch_restarts=result.branch_restarts, branch_drift=result.branch_drift,
-                          iterations=result.iterations,
+                          iterations=result.iterations, verdict=verdict.verdict, verdict_message=verdict.message,
+                          fit_statistic=verdict.statistic, fit_threshold=verdict.threshold, fit_dof=verdict.dof,
+                          worst_measurements=[name for name, _ in verdict.worst], input_notes=list(target.notes),
                           model_mesh={"R": mm.model.mesh.R, "H": mm.model.mesh.H},
                           title="breastcore parameter identification", **problem.attrs())
     return ds
+
+
+def verdict_of(result, target, noise):
+    """The :class:`~breastcore.verdict.FitVerdict` of an identification result against its data."""
+    labels = [f"{p.name}:{q}" for p in target.postures for q in QUANTITIES]
+    return fit_verdict(result.success, result.measurement_error[-1], target.weights, noise, labels)

@@ -107,8 +107,10 @@ def identify(mm, target, initial, options=IdentificationOptions(), weights=None)
     w = np.ones_like(target) if weights is None else np.asarray(weights, float)
     informative = int(np.count_nonzero(w > 0))
     if informative < len(initial):
-        raise ValueError(f"{informative} weighted measurements cannot determine {len(initial)} parameters; "
-                         f"measure at least two postures")
+        why = "every weight is 0" if informative == 0 else f"only {informative} of {w.size} measurements have weight > 0"
+        advice = ("measure at least two postures (5 measurements each)" if w.shape[0] < 2 else
+                  "give weight > 0 to at least as many measurements as there are parameters")
+        raise ValueError(f"{why}: {informative} measurements cannot determine {len(initial)} parameters; {advice}")
     sqrt_w = np.sqrt(w)
     result = IdentificationResult(False, "", np.asarray(initial, float))
     tic = time.perf_counter()
@@ -340,6 +342,14 @@ def _gauss_newton(mm, target, sqrt_w, initial, solutions, options, result, recor
         else:
             result.message = "no admissible Gauss-Newton step"
             return
+        trial_cost = float(np.sum((sqrt_w * (mm.measure(trial_sols) / target - 1.0)) ** 2))
+        if trial_cost > cost and not options.fixed_iterations:
+            # the paper's ε_m test fires here too, but this is no convergence; the step is not
+            # taken, so the estimate is the best iterate, not the worse trial point
+            mm.remember(result.solutions or sols, values)
+            result.message = (f"the Gauss–Newton step raised the cost ({cost:.3e} → {trial_cost:.3e}): step "
+                              f"rejected, the best iterate (iteration {len(result.cost) - 1}) is the estimate")
+            return
         values, sols = trial, trial_sols
         result.solutions = sols
         record(values, sols)
@@ -348,9 +358,6 @@ def _gauss_newton(mm, target, sqrt_w, initial, solutions, options, result, recor
         cost = result.cost[-1]
         if options.fixed_iterations:
             continue
-        if decrease < 0:                        # the paper's test fires here too, but this is no convergence
-            result.message = f"the cost rose ({cost - decrease:.3e} → {cost:.3e}): Gauss–Newton step failed"
-            return
         if decrease < options.cost_tol:
             result.success = True
             result.message = f"cost decrease below ε_m = {options.cost_tol:g}"

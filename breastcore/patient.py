@@ -5,6 +5,7 @@ offending item, and checked for consistency (warnings). See ``docs/measurements.
 from __future__ import annotations
 
 import csv
+import dataclasses
 import math
 import warnings
 from collections.abc import Mapping
@@ -32,6 +33,10 @@ class MeasurementWarning(UserWarning):
     """Physically inconsistent (but usable) patient measurements."""
 
 
+class ImplausibleMeasurements(MeasurementError):
+    """Measurements that no shape of the model can produce (:func:`implausible`)."""
+
+
 @dataclass(frozen=True, eq=False)
 class PatientMeasurements:
     """Measured values of one patient in SI units (arrays are read-only copies).
@@ -43,6 +48,10 @@ class PatientMeasurements:
     values : (n_posture, 5) float array, in m3, m2, m, m, m; finite and > 0.
     measurement_set : {"paper15", "exact"}
     weights : (n_posture, 5) float array, finite and >= 0; default all 1.
+    notes : tuple of str
+        What the input checks found and let through: implausible values run with
+        ``allow_implausible`` (:func:`implausible`), and inconsistent ones
+        (:func:`inconsistent`). Every output of an identification carries them.
     """
 
     postures: tuple
@@ -50,6 +59,7 @@ class PatientMeasurements:
     values: np.ndarray
     measurement_set: str = "paper15"
     weights: np.ndarray | None = None
+    notes: tuple = ()
 
     def __post_init__(self):
         check_measurement_set(self.measurement_set)
@@ -79,7 +89,8 @@ class PatientMeasurements:
                 raise MeasurementError(f"posture {names[i]!r}: {q}{what} = {array[i, j]:g}{unit} "
                                        f"must be a finite number {rule}{more}")
         v.setflags(write=False), w.setflags(write=False)
-        for name, value in (("values", v), ("weights", w), ("postures", tuple(self.postures))):
+        for name, value in (("values", v), ("weights", w), ("postures", tuple(self.postures)),
+                            ("notes", tuple(str(n) for n in self.notes))):
             object.__setattr__(self, name, value)
 
     @property
@@ -133,8 +144,13 @@ def _number(value, what, unit="", positive=True) -> float:
     return number
 
 
-def _build(table, measurement_set, weights) -> PatientMeasurements:
-    """``table``: name -> (Posture, {quantity: (value, unit)}); ``weights``: name -> {quantity: w}."""
+def _build(table, measurement_set, weights, allow_implausible=False) -> PatientMeasurements:
+    """``table``: name -> (Posture, {quantity: (value, unit)}); ``weights``: name -> {quantity: w}.
+
+    Values that break a rule of :func:`implausible` are refused (ImplausibleMeasurements)
+    unless ``allow_implausible``; then they, and the :func:`inconsistent` ones, are kept in
+    ``notes``.
+    """
     _known(weights, list(table), "weights: unknown posture")
     values, w = [], []
     for name, (_, given) in table.items():
@@ -147,12 +163,21 @@ def _build(table, measurement_set, weights) -> PatientMeasurements:
                   for q in QUANTITIES])
     result = PatientMeasurements(tuple(p for p, _ in table.values()), QUANTITIES, np.array(values),
                                  check_measurement_set(measurement_set), np.array(w))
+    broken = implausible(result)
+    if broken and not allow_implausible:
+        raise ImplausibleMeasurements(f"{broken[0]}" + (f" (and {len(broken) - 1} more)" if len(broken) > 1 else "")
+                                      + "; check the values, or run them flagged with allow_implausible")
+    notes = [f"implausible, run as asked: {b}" for b in broken] + inconsistent(result)
     check_consistency(result)
-    return result
+    return dataclasses.replace(result, notes=tuple(notes))
 
 
-def patient_from_dict(d) -> PatientMeasurements:
-    """Validate and convert the dict form (keys ``measurement_set``, ``units``, ``postures``, ``weights``)."""
+def patient_from_dict(d, allow_implausible=False) -> PatientMeasurements:
+    """Validate and convert the dict form (keys ``measurement_set``, ``units``, ``postures``, ``weights``).
+
+    Raises ImplausibleMeasurements for values no shape of the model produces
+    (:func:`implausible`), unless ``allow_implausible`` (they are then kept in ``notes``).
+    """
     _known(_mapping(d, "patient data"), ("measurement_set", "units", "postures", "weights"), "unknown key")
     _known(_mapping(d.get("units") or {}, "units", True), QUANTITIES, "units: unknown quantity")
     units = {q: _unit(q, u, "units: ")[0] for q, u in {**DEFAULT_UNITS, **(d.get("units") or {})}.items()}
@@ -162,7 +187,7 @@ def patient_from_dict(d) -> PatientMeasurements:
     for name, entry in _mapping(d.get("postures"), "postures").items():
         table[name] = (_posture(name, _mapping(entry, f"posture {name!r}").get("angle")),
                        {q: (v, units.get(q, "")) for q, v in entry.items() if q != "angle"})
-    return _build(table, d.get("measurement_set", "paper15"), weights)
+    return _build(table, d.get("measurement_set", "paper15"), weights, allow_implausible)
 
 
 def _read_csv(path, measurement_set) -> tuple:
@@ -185,15 +210,16 @@ def _read_csv(path, measurement_set) -> tuple:
     return _mapping(table, f"{path}: measurements"), measurement_set, weights
 
 
-def load_patient(path, measurement_set=None) -> PatientMeasurements:
+def load_patient(path, measurement_set=None, allow_implausible=False) -> PatientMeasurements:
     """Read a ``.yaml``/``.yml`` (dict form) or ``.csv`` file; ``measurement_set`` (default
-    the YAML file's, else ``"paper15"``) must agree with the YAML file's if both are given."""
+    the YAML file's, else ``"paper15"``) must agree with the YAML file's if both are given.
+    ``allow_implausible`` as in :func:`patient_from_dict`."""
     path = Path(path)
     _known([path.suffix.lower()], (".yaml", ".yml", ".csv"), f"{path}: unknown patient file type")
     # a file that cannot be read or parsed is refused in one line too (YAML's messages span lines)
     try:
         if path.suffix.lower() == ".csv":
-            return _build(*_read_csv(path, measurement_set or "paper15"))
+            return _build(*_read_csv(path, measurement_set or "paper15"), allow_implausible)
         data = yaml.safe_load(path.read_text(encoding="utf-8"))
     except UnicodeDecodeError as err:
         raise MeasurementError(f"{path}: not UTF-8 text (byte {err.start})") from None
@@ -207,7 +233,47 @@ def load_patient(path, measurement_set=None) -> PatientMeasurements:
     if measurement_set is not None and isinstance(data, Mapping):
         if data.setdefault("measurement_set", measurement_set) != measurement_set:
             raise MeasurementError(f"{path}: measurement_set {data['measurement_set']!r} != {measurement_set!r}")
-    return patient_from_dict(data)
+    return patient_from_dict(data, allow_implausible)
+
+
+def implausible(patient) -> list:
+    """Broken rules that every measured shape of the model obeys, one message per break.
+
+    Notes
+    -----
+    With ``MP`` the nipple projection (back_depth), ``Δf`` the frontal depth, ``A`` the
+    area and ``V`` the volume of the ``paper15`` set (spec §4), every deformed cap has
+
+    - ``MP ≤ Δf``: the nipple is a point of the breast, and the frontal depth is a smooth
+      maximum of ``y``, never below the largest ``y``;
+    - ``A ≥ π MP²``: the rim landmarks stay in the torso plane ``y = 0``, so each of the four
+      straight nipple-to-rim distances of ``A = (π/4) Σ d²`` is at least ``MP``;
+    - ``V ≥ (2π/3) MP³``: each tape radius is at least its straight distance, so
+      ``MR + LR + IR − MP ≥ 2 MP`` in ``V = (π/3) MP² (MR + LR + IR − MP)``.
+
+    The ``exact`` set (a scan's mesh volume and skin area) has the first rule only.
+    """
+    out = []
+    for name, (v, area, _h, f, mp) in zip(patient.posture_names, patient.values):
+        rules = [(mp > f, f"back_depth {mp * 1e3:.4g} mm exceeds frontal_depth {f * 1e3:.4g} mm, "
+                          "which is at least the nipple's projection")]
+        if patient.measurement_set == "paper15":
+            rules += [(area < math.pi * mp**2, f"area {area * 1e4:.4g} cm2 is below π·back_depth² = "
+                                               f"{math.pi * mp**2 * 1e4:.4g} cm2 (every straight nipple-to-rim "
+                                               "distance is at least the nipple projection)"),
+                      (v < 2 * math.pi / 3 * mp**3, f"volume {v * 1e6:.4g} ml is below (2π/3)·back_depth³ = "
+                                                   f"{2 * math.pi / 3 * mp**3 * 1e6:.4g} ml (every tape radius is "
+                                                   "at least the nipple projection)")]
+        out += [f"posture {name!r}: {message}" for bad, message in rules if bad]
+    return out
+
+
+def inconsistent(patient) -> list:
+    """The messages of :func:`check_consistency`, as a list (no warning issued)."""
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", MeasurementWarning)
+        check_consistency(patient)
+    return [str(w.message) for w in caught if issubclass(w.category, MeasurementWarning)]
 
 
 def check_consistency(patient) -> None:
@@ -216,16 +282,15 @@ def check_consistency(patient) -> None:
     Notes
     -----
     The spherical cap of height ``MP`` (back_depth) and skin area ``A = π (a² + MP²)`` has
-    ``V_cap = π MP (3a² + MP²) / 6``. Warn if back_depth > frontal_depth, if ``a² <= 0``, or if
-    ``V / V_cap`` or ``height / (2a)`` is outside ``[1/F, F]``, ``F = CONSISTENCY_FACTOR`` (3).
+    ``V_cap = π MP (3a² + MP²) / 6``. Warn if ``V / V_cap`` or ``height / (2a)`` is outside
+    ``[1/F, F]``, ``F = CONSISTENCY_FACTOR`` (3): unusual for a breast, not impossible for the
+    model. What is impossible (``a² < 0``, back_depth > frontal_depth) is :func:`implausible`.
     """
     F = CONSISTENCY_FACTOR
-    for name, (v, area, h, f, mp) in zip(patient.posture_names, patient.values):
+    for name, (v, area, h, _f, mp) in zip(patient.posture_names, patient.values):
         a = math.sqrt(max(area / math.pi - mp**2, 0.0))
         v_cap = math.pi * mp * (3.0 * a * a + mp**2) / 6.0
         for bad, message in (
-                (mp > f, f"back_depth {mp * 1e3:.4g} mm exceeds frontal_depth {f * 1e3:.4g} mm"),
-                (a == 0, f"area {area * 1e4:.4g} cm2 is below π·back_depth² = {math.pi * mp**2 * 1e4:.4g} cm2"),
                 (a > 0 and not 1 / F <= v / v_cap <= F, f"volume {v * 1e6:.4g} ml is not within a factor "
                  f"{F:g} of {v_cap * 1e6:.4g} ml, the spherical cap with this back_depth and area"),
                 (a > 0 and not 1 / F <= h / (2 * a) <= F, f"height {h * 1e3:.4g} mm is not within a factor "

@@ -36,8 +36,16 @@ def synthetic_section(name, ds):
     lines = [
         f"### Scene `{name}`: parameter error (%) per method, mesh and initial offset", "",
         "Mean |estimate/truth − 1| in %, truth from the scene's truth mesh (built by gmsh at the true R, H); "
-        "`residual` is the RMS relative measurement residual, `time_s` the identification wall time.", "",
+        "`residual` is the RMS relative measurement residual, `time_s` the identification wall time; "
+        "`consistent`, `misfit` and `not_converged` count the runs of each fit verdict (breastcore.verdict), "
+        "not the optimiser's exit flags.", "",
         table.reset_index().to_markdown(index=False, floatfmt=".4g"), ""]
+    if "covered" in ds:
+        lines += ["**95 % intervals** (linearised, under the identification's noise model): per mesh, the "
+                  "fraction of runs whose interval contains the truth (coverage; 0.95 is the nominal value when "
+                  "the data carry that noise), and the fraction in which the parameter is determined (interval "
+                  "within a factor 10; an undetermined parameter's interval is not reported and does not cover).",
+                  "", _markdown(coverage_table(ds), ".3g"), ""]
     key = ds.attrs.get("paper_table", "none")
     if key in paper.PARAMETER_TABLES:
         comparison = paper_comparison_table(ds, key)
@@ -47,6 +55,20 @@ def synthetic_section(name, ds):
                   "paper has and this scene does not run are listed with the paper's row only. Empty: no value.", "",
                   _markdown(comparison, ".4g"), ""]
     return "\n".join(lines)
+
+
+def coverage_table(ds) -> pd.DataFrame:
+    """Per mesh: runs, and per parameter the coverage of the truth by the 95 % interval and the
+    fraction of runs in which the parameter is determined."""
+    mesh = ds["mesh"].values.astype(str)
+    rows = []
+    for level in dict.fromkeys(mesh):
+        pick = mesh == level
+        row = {"mesh": level, "runs": int(pick.sum())}
+        row.update({f"{p} covered": ds["covered"].values[pick, j].mean() for j, p in enumerate(IDENTIFIED)})
+        row.update({f"{p} determined": ds["determined"].values[pick, j].mean() for j, p in enumerate(IDENTIFIED)})
+        rows.append(row)
+    return pd.DataFrame(rows)
 
 
 def paper_comparison_table(ds, key) -> pd.DataFrame:

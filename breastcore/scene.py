@@ -11,6 +11,7 @@ import xarray as xr
 from .datasets import _var, open_dataset, provenance
 from .parameters import IDENTIFIED, PARAMETER_INFO
 from .solution import DIAGNOSTICS
+from .verdict import VERDICTS
 from .targets import measure_solution
 
 
@@ -45,7 +46,16 @@ def synthetic_summary(runs, paths, name, config_hash=None, tables=(), sensitivit
         "iterations": _var(("run",), np.array([int(ds.attrs.get("iterations", ds.sizes["iteration"] - 1))
                                                for ds in rows]), "1", "accepted iterations"),
         "wall_time": _var(("run",), np.array([ds["wall_time"].values[-1] for ds in rows]), "s", "identification time"),
-        "success": _var(("run",), np.array([int(ds.attrs["success"]) for ds in rows]), "1", "1 if converged"),
+        "success": _var(("run",), np.array([int(ds.attrs["success"]) for ds in rows]), "1",
+                        "1 if the optimiser met its stopping test (what the estimate is worth: verdict)"),
+        "verdict": _var(("run",), np.array([ds.attrs["verdict"] for ds in rows]), "1",
+                        "fit verdict: consistent, misfit or not_converged (breastcore.verdict)"),
+        "determined": _var(("run", "parameter"), np.array([ds["determined"].values for ds in rows]), "1",
+                           "1 if the parameter's 95 % interval spans at most a factor 10"),
+        "covered": _var(("run", "parameter"),
+                        np.array([((ds["interval_low"] <= ds["truth"]) & (ds["truth"] <= ds["interval_high"])).values
+                                  for ds in rows]).astype(np.int8), "1",
+                        "1 if the 95 % interval contains the truth (0 where it does not, or is not determined)"),
         "forward_solves": _var(("run",), np.array([int(ds.attrs["forward_solves"]) for ds in rows]), "1",
                                "forward solves (all postures counted)"),
         "final_measurement_error": _var(("run", "posture", "quantity"),
@@ -110,14 +120,19 @@ def discretisation_error(truth, level_solutions, measurement_set):
 
 
 def error_table(summary: xr.Dataset) -> pd.DataFrame:
-    """Mean |relative error| in % per mesh and offset, per parameter (paper's Table 1 layout)."""
+    """Mean |relative error| in % per mesh and offset, per parameter (paper's Table 1 layout),
+    with the number of runs of each fit verdict (consistent, misfit, not_converged)."""
     df = pd.DataFrame(np.abs(summary["relative_error"].values) * 100, columns=IDENTIFIED)
     df["mean"] = df[list(IDENTIFIED)].mean(axis=1)
     df["residual"] = summary["measurement_residual"].values
     df["method"], df["mesh"], df["offset"] = summary["method"].values, summary["mesh"].values, summary["offset"].values
     df["time_s"], df["iterations"] = summary["wall_time"].values, summary["iterations"].values
-    df["success"] = summary["success"].values
-    return df.groupby(["method", "mesh", "offset"], sort=False).mean().round(5)
+    keys = ["method", "mesh", "offset"]
+    table = df.groupby(keys, sort=False).mean().round(5)
+    verdicts = pd.Series(summary["verdict"].values.astype(str))
+    for verdict in VERDICTS:                                   # counts of verdicts, not of optimiser exits
+        table[verdict] = (verdicts == verdict).groupby([df[k] for k in keys], sort=False).sum().values
+    return table
 
 
 def solution_summary(path, name, kind, config_hash=None) -> xr.Dataset:
@@ -130,16 +145,19 @@ def solution_summary(path, name, kind, config_hash=None) -> xr.Dataset:
         for variable in (key, "solve_" + key):
             if variable in ds and "posture" in ds[variable].dims:
                 data[key] = ds[variable].variable
+    verdict = {}
     if kind == "patient":
-        for key in ("estimate", "interval_low", "interval_high", "cost"):
+        for key in ("estimate", "interval_low", "interval_high", "interval_decades", "determined", "cost",
+                    "standardised_residual"):
             data[key] = ds[key].variable
+        verdict = {k: ds.attrs[k] for k in ("verdict", "verdict_message", "worst_measurements", "input_notes")}
     out = xr.Dataset(data, coords={k: ds[k].variable for k in ("posture", "xyz") if k in ds.coords}
                      | ({"parameter": ds["parameter"].variable} if kind == "patient" else {})
                      | ({"iteration": ds["iteration"].variable} if kind == "patient" else {}))
     # the Λ that defines the scene: a forward scene's, or a patient's estimate
     out.attrs = provenance("scene", json.loads(ds.attrs.get("parameters", "{}")), config_hash, scene=name,
                            scene_kind=kind, source=str(path),
-                           title=f"{kind} scene {name}")
+                           title=f"{kind} scene {name}", **verdict)
     return out
 
 
@@ -155,13 +173,20 @@ def record_datasets(summary: xr.Dataset, datasets) -> xr.Dataset:
 
 
 def parameter_table(identification: xr.Dataset) -> pd.DataFrame:
-    """Estimate and 95 % interval per parameter, with units."""
+    """Estimate and 95 % interval per parameter, with units, whether the data determine it, and the
+    fit verdict and the input checks' notes of the identification (the same on every row)."""
+    determined = identification["determined"].values.astype(bool)
+    notes = "; ".join(json.loads(identification.attrs.get("input_notes", "[]"))) or "none"
     return pd.DataFrame({
         "parameter": IDENTIFIED,
         "units": [PARAMETER_INFO[p].units for p in IDENTIFIED],
         "estimate": identification["estimate"].values,
         "ci95_low": identification["interval_low"].values,
         "ci95_high": identification["interval_high"].values,
+        "interval_decades": identification["interval_decades"].values,
+        "determined": np.where(determined, "yes", "no: not determined by these measurements"),
+        "fit_verdict": identification.attrs["verdict"],
+        "input_notes": notes,
     })
 
 

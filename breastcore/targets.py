@@ -6,6 +6,8 @@ Units differ along ``quantity`` (m³, m², m, m, m); each quantity's unit is in 
 
 from __future__ import annotations
 
+import json
+
 import numpy as np
 import xarray as xr
 
@@ -61,6 +63,7 @@ def measurement_dataset(target: PatientMeasurements, source: str, *, landmarks=N
     ds = xr.Dataset(data, coords=coords)
     ds.attrs = provenance("measure", truth, config_hash, measurement_set=target.measurement_set, source=source,
                           synthetic=int(truth is not None), title="breastcore measurements per posture",
+                          input_notes=list(target.notes),
                           **({} if problem is None else problem.attrs()))
     return ds
 
@@ -69,7 +72,8 @@ def target_from_dataset(ds: xr.Dataset) -> PatientMeasurements:
     """The measurements of a measurement dataset, validated again."""
     postures = tuple(Posture(str(n), float(a)) for n, a in zip(ds["posture"].values, ds["posture_angle"].values))
     return PatientMeasurements(postures, QUANTITIES, ds["measurement"].transpose("posture", "quantity").values,
-                               ds.attrs["measurement_set"], ds["weight"].values)
+                               ds.attrs["measurement_set"], ds["weight"].values,
+                               tuple(json.loads(ds.attrs.get("input_notes", "[]"))))
 
 
 def truth_from_dataset(ds: xr.Dataset):

@@ -13,6 +13,12 @@ weighted least-squares estimator ``ln Λ̂ = ln Λ + S ε`` with
 
 and the 95 % interval ``Λ̂ exp(±1.96 σ_j)``. ``S`` is also the paper's relative
 sensitivity matrix ``∂ ln Λ_j / ∂ ln m_i`` in its linearised form.
+
+An interval that spans more than :data:`DETERMINED_FACTOR` (``high/low = exp(2 · 1.96 σ_j)``)
+says that the measurements do not determine that parameter: its bounds are NaN (never the
+overflowed ``[0, inf]`` or an interval from 4e-5 to 2e11 Pa) and its width is reported in
+decades, ``2 · 1.96 σ_j / ln 10``, which never overflows (it is inf only for a parameter that
+the measurements do not move at all).
 """
 
 from __future__ import annotations
@@ -20,6 +26,8 @@ from __future__ import annotations
 import numpy as np
 
 Z95 = 1.959963984540054
+#: A 95 % interval wider than this factor (high / low) marks its parameter as not determined.
+DETERMINED_FACTOR = 10.0
 
 
 def linearised_sensitivity(J, weights=None):
@@ -31,16 +39,43 @@ def linearised_sensitivity(J, weights=None):
 
 
 def log_covariance(J, noise=0.10, weights=None):
-    """Covariance of ``ln Λ̂`` (6×6) under relative measurement noise ``noise`` (1σ)."""
+    """Covariance of ``ln Λ̂`` (6×6) under relative measurement noise ``noise`` (1σ).
+
+    A parameter along a direction that the weighted Jacobian does not see at all (a zero
+    singular value, to round-off) has an infinite variance: the pseudo-inverse alone would
+    give it none, an interval of zero width for a parameter the data cannot fix.
+    """
+    J = np.asarray(J, float)
     S = linearised_sensitivity(J, weights)
-    return noise**2 * S @ S.T
+    cov = noise**2 * S @ S.T
+    w = np.ones(J.shape[0]) if weights is None else np.asarray(weights, float).ravel()
+    _, s, Vt = np.linalg.svd(np.sqrt(w)[:, None] * J)
+    s = np.concatenate([s, np.zeros(J.shape[1] - s.size)])
+    null = s <= (s[0] if s.size else 0.0) * max(J.shape) * np.finfo(float).eps
+    blind = np.any(np.abs(Vt[null]) > np.sqrt(np.finfo(float).eps), axis=0) if null.any() else np.zeros(J.shape[1], bool)
+    cov[blind, blind] = np.inf
+    return cov
 
 
-def intervals(values, cov_log, z=Z95):
-    """Lower and upper bounds ``Λ exp(∓ z σ)`` of the (default 95 %) interval."""
-    sigma = np.sqrt(np.clip(np.diag(cov_log), 0.0, None))
+def interval_decades(cov_log, z=Z95):
+    """Width ``log10(high/low) = 2 z σ_j / ln 10`` of each (default 95 %) interval, in decades."""
+    sigma = np.sqrt(np.clip(np.diag(np.asarray(cov_log, float)), 0.0, None))
+    return 2.0 * z * sigma / np.log(10.0)
+
+
+def determined(cov_log, z=Z95, max_factor=DETERMINED_FACTOR):
+    """Whether each parameter's interval spans at most ``max_factor`` (bool array)."""
+    return interval_decades(cov_log, z) <= np.log10(max_factor)
+
+
+def intervals(values, cov_log, z=Z95, max_factor=DETERMINED_FACTOR):
+    """Bounds ``Λ exp(∓ z σ)`` of the (default 95 %) interval; NaN for a parameter that is not
+    :func:`determined` (its width is tested in log space first, so nothing overflows)."""
+    sigma = np.sqrt(np.clip(np.diag(np.asarray(cov_log, float)), 0.0, None))
     values = np.asarray(values, float)
-    return values * np.exp(-z * sigma), values * np.exp(z * sigma)
+    ok = determined(cov_log, z, max_factor)
+    spread = np.exp(np.where(ok, z * sigma, 0.0))
+    return np.where(ok, values / spread, np.nan), np.where(ok, values * spread, np.nan)
 
 
 def conditioning(J):

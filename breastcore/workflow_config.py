@@ -12,6 +12,7 @@ import json
 import math
 import os
 import re
+import warnings
 from pathlib import Path
 
 import jsonschema
@@ -338,6 +339,19 @@ def _patient_posture(key, values, where):
     _postures([key if "angle" not in values else f"{key}={values['angle']}"], where)
 
 
+def _patient_values(scene, where):
+    """Refuse values no shape of the model produces (unless allow_implausible), naming rule and values."""
+    from .measure import MeasurementError
+    from .patient import patient_from_dict
+    try:
+        with warnings.catch_warnings():                 # inconsistent values are run, and flagged by the job
+            warnings.simplefilter("ignore")
+            patient_from_dict({"measurement_set": scene["measurement_set"], "units": scene["units"],
+                               "postures": scene["postures"]}, allow_implausible=scene["allow_implausible"])
+    except MeasurementError as err:
+        raise ConfigError(f"config key {where}.postures: {err} (set {where}.allow_implausible: true)") from None
+
+
 def _cap(values, where):
     if values.get("H", 0) >= values.get("R", 1):
         raise ConfigError(f"config key {where}.H: H = {values['H']} m must be < R = {values['R']} m")
@@ -394,6 +408,7 @@ def validate_config(config, schema_path) -> dict:
                 missing = [q for q in ("volume", "area", "height", "frontal_depth", "back_depth") if q not in values]
                 if missing:
                     raise ConfigError(f"config key {where}.postures.{posture}: missing {', '.join(missing)}")
+            _patient_values(scene, where)
             if 5 * len(scene["postures"]) < len(IDENTIFIED):
                 raise ConfigError(f"config key {where}.postures: one posture gives 5 measurements for "
                                   f"{len(IDENTIFIED)} parameters; measure at least two postures")

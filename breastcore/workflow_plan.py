@@ -122,6 +122,8 @@ class Plan:
         postures = {k: dict(v) for k, v in scene["postures"].items()}
         spec = {"patient": {"postures": postures, "units": scene["units"],
                             "measurement_set": scene["measurement_set"]}}
+        if scene["allow_implausible"]:                   # only then: the usual spec (and its path) is unchanged
+            spec["patient"]["allow_implausible"] = True
         measured = self._add("measure", spec)
         ident = self.identify(measured, scene["mesh"], scene["initial"], scene["identification"])
         sens = [self.sensitivity(ident, scene["sensitivity"])] if scene["sensitivity"] != "none" else []

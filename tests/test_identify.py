@@ -2,6 +2,8 @@
 the paper's Gauss-Newton, rejected failed solves, and the output dataset."""
 
 import dataclasses
+import re
+
 import numpy as np
 import pytest
 
@@ -135,7 +137,10 @@ def test_identify_command_writes_history_estimate_and_uncertainty(tmp_path):
                  "interval_low", "interval_high", "singular_values", "position"):
         assert name in ds and "units" in ds[name].attrs and "long_name" in ds[name].attrs
     assert ds["cost"].dims == ("iteration",) and ds["measurement_error"].dims == ("iteration", "posture", "quantity")
-    assert np.all(ds["interval_low"] < ds["estimate"]) and np.all(ds["estimate"] < ds["interval_high"])
+    ok = ds["determined"].values.astype(bool)
+    assert ok.any() and np.all(ds["interval_low"].values[ok] < ds["estimate"].values[ok])
+    assert np.all(ds["estimate"].values[ok] < ds["interval_high"].values[ok])
+    assert np.all(np.isnan(ds["interval_low"].values[~ok])) and np.all(ds["interval_decades"].values[~ok] > 1)
     assert np.abs(ds["relative_error"]).max() < 1e-4
     # not converging: non-zero exit, history kept
     bad = tmp_path / "bad.nc"
@@ -217,14 +222,20 @@ class _SpoiledSecondStep(LinearModel):
         return super().measure(solutions) * (1.3 if solutions.get("spoiled") else 1.0)
 
 
-def test_gauss_newton_stops_at_a_cost_rise_without_calling_it_converged():
+def test_gauss_newton_returns_its_best_iterate_when_the_cost_rises_and_says_so():
+    """It kept the worse trial point as its estimate, and its message read 2·new − old → new."""
     mm = _SpoiledSecondStep()
     target = mm.measure(mm.solve(TRUTH))
     mm.solves = 0
     opts = IdentificationOptions(method="gauss-newton", jacobian="implicit", max_iterations=10)
     result = identify(mm, target, TRUTH * 1.2, opts)
-    assert result.cost[2] > result.cost[1]
-    assert result.iterations == 2 and not result.success and "cost rose" in result.message
+    assert result.iterations == 1 and not result.success and len(result.cost) == 2
+    assert np.array_equal(result.estimate, result.parameters[1]) and result.cost[1] == min(result.cost)
+    numbers = re.search(r"raised the cost \((\S+) → (\S+)\)", result.message)
+    assert numbers, result.message
+    before, after = float(numbers.group(1)), float(numbers.group(2))
+    assert before == pytest.approx(result.cost[1], rel=1e-3) and after > before
+    assert "best iterate (iteration 1)" in result.message
 
 
 def test_fixed_iterations_runs_them_all_and_claims_no_convergence():
@@ -314,8 +325,14 @@ def test_fewer_weighted_measurements_than_parameters_is_refused_before_any_solve
     mm.solves = 0
     one_posture = np.zeros_like(target)
     one_posture[0] = 1.0                                    # five measurements for six parameters
-    with pytest.raises(ValueError, match="5 weighted measurements cannot determine 6 parameters"):
+    with pytest.raises(ValueError, match="only 5 of 15 measurements have weight > 0: 5 measurements cannot "
+                                         "determine 6 parameters; give weight > 0") as err:
         identify(mm, target, TRUTH * 1.1, IdentificationOptions(), weights=one_posture)
+    assert "two postures" not in str(err.value)                # three were measured
+    with pytest.raises(ValueError, match="every weight is 0"):
+        identify(mm, target, TRUTH * 1.1, IdentificationOptions(), weights=np.zeros_like(target))
+    with pytest.raises(ValueError, match="measure at least two postures"):
+        identify(mm, target[:1], TRUTH * 1.1, IdentificationOptions())
     assert mm.solves == 0
     one_posture[1, 0] = 1.0                                 # six: determined, and it runs
     assert identify(mm, target, TRUTH * 1.1, IdentificationOptions(max_iterations=3), weights=one_posture).cost

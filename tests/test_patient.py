@@ -10,14 +10,16 @@ import pytest
 import yaml
 
 from breastcore.measure import QUANTITIES, MeasurementError
-from breastcore.patient import (DEFAULT_UNITS, UNIT_FACTORS, MeasurementWarning, PatientMeasurements,
+from breastcore.patient import (DEFAULT_UNITS, UNIT_FACTORS, ImplausibleMeasurements, MeasurementWarning,
+                                PatientMeasurements,
                                 check_consistency, load_patient, patient_from_dict)
 from breastcore.postures import Posture
 
-ROWS = {"standing": (480, 310, 150, 62, 55), "bent45": (480, 320, 140, 75, 70), "fours": (480, 330, 130, 85, 80)}
-SI = np.array([[4.8e-4, 0.031, 0.150, 0.062, 0.055],
-               [4.8e-4, 0.032, 0.140, 0.075, 0.070],
-               [4.8e-4, 0.033, 0.130, 0.085, 0.080]])
+# Plausible values (implausible()): volume ≥ (2π/3) back_depth³ and area ≥ π back_depth² in every posture.
+ROWS = {"standing": (600, 310, 150, 62, 55), "bent45": (1100, 320, 140, 75, 70), "fours": (1400, 330, 130, 85, 80)}
+SI = np.array([[6.0e-4, 0.031, 0.150, 0.062, 0.055],
+               [1.1e-3, 0.032, 0.140, 0.075, 0.070],
+               [1.4e-3, 0.033, 0.130, 0.085, 0.080]])
 
 
 def good():
@@ -47,7 +49,7 @@ def test_yaml_file_converts_to_si(tmp_path):
     assert pm.postures[1] == Posture("bent45", 45.0)
     assert pm.quantities == QUANTITIES and pm.measurement_set == "paper15"
     np.testing.assert_allclose(pm.values, SI, rtol=1e-14)
-    assert pm.values[0, 0] == pytest.approx(4.8e-4) and pm.values[0, 1] == pytest.approx(0.031)
+    assert pm.values[0, 0] == pytest.approx(6.0e-4) and pm.values[0, 1] == pytest.approx(0.031)
     assert pm.values[0, 3] == pytest.approx(0.062)
     np.testing.assert_array_equal(pm.weights, np.ones((3, 5)))
     with pytest.raises(ValueError):
@@ -66,7 +68,7 @@ def test_csv_yaml_and_dict_agree(tmp_path):
 
 
 def test_csv_other_units_weights_and_angle(tmp_path):
-    rows = {"standing": (0.48, 31000, 15, 6.2, 5.5), "seated=30": (0.48, 31000, 15, 6.2, 5.5)}
+    rows = {"standing": (0.6, 31000, 15, 6.2, 5.5), "seated=30": (0.6, 31000, 15, 6.2, 5.5)}
     text = csv_text(rows, units=("l", "mm2", "cm", "cm", "cm")).replace("unit\n", "unit,weight\n", 1)
     text = text.replace(",l\n", ",l,2\n", 1)
     (tmp_path / "p.csv").write_text(text)
@@ -77,8 +79,8 @@ def test_csv_other_units_weights_and_angle(tmp_path):
 
 
 @pytest.mark.parametrize("quantity, unit, value, si", [
-    ("volume", "m3", 4.8e-4, 4.8e-4), ("volume", "cm3", 480, 4.8e-4), ("volume", "mL", 480, 4.8e-4),
-    ("volume", "l", 0.48, 4.8e-4), ("area", "m2", 0.031, 0.031), ("area", "cm²", 310, 0.031),
+    ("volume", "m3", 1.4e-3, 1.4e-3), ("volume", "cm3", 1400, 1.4e-3), ("volume", "mL", 1400, 1.4e-3),
+    ("volume", "l", 1.4, 1.4e-3), ("area", "m2", 0.031, 0.031), ("area", "cm²", 310, 0.031),
     ("area", "mm2", 31000, 0.031), ("height", "cm", 15, 0.15), ("height", "m", 0.15, 0.15),
     ("back_depth", "mm", 55, 0.055)])
 def test_unit_table(quantity, unit, value, si):
@@ -174,14 +176,12 @@ def test_file_level_errors(tmp_path):
 
 
 @pytest.mark.parametrize("quantity, value, words", [
-    ("back_depth", 70, ["back_depth", "frontal_depth"]),   # nipple in front of the most frontal point
     ("volume", 5000, ["volume"]),                           # 5 l for a 310 cm2 breast
-    ("volume", 100, ["volume"]),
+    ("area", 3000, ["volume"]),                             # plausible, but a wide cap for 600 ml
     ("height", 600, ["height"]),
     ("height", 40, ["height"]),
-    ("area", 90, ["area"]),                                 # below π MP², no cap fits
 ])
-def test_inconsistent_input_warns(quantity, value, words):
+def test_inconsistent_input_warns_and_is_kept_in_the_notes(quantity, value, words):
     data = good()
     data["postures"]["standing"][quantity] = value
     with warnings.catch_warnings():
@@ -191,6 +191,47 @@ def test_inconsistent_input_warns(quantity, value, words):
     messages = " ".join(str(w.message) for w in record)
     assert "standing" in messages and all(w in messages for w in words), messages
     assert pm.values.shape == (3, 5)  # still usable
+    assert any("standing" in note and words[0] in note for note in pm.notes)   # every output carries it
+
+
+@pytest.mark.parametrize("quantity, value, words", [
+    ("back_depth", 70, ["back_depth 70 mm exceeds frontal_depth 62 mm"]),       # nipple in front of the front
+    ("area", 1, ["area 1 cm2 is below π·back_depth² = 95.03 cm2"]),             # issue #19: 1 cm², 601 ml
+    ("area", 90, ["area 90 cm2"]),
+    ("volume", 300, ["volume 300 ml is below (2π/3)·back_depth³ = 348.5 ml"]),
+])
+def test_implausible_input_is_refused_with_the_rule_and_values_unless_allowed(quantity, value, words):
+    data = good()
+    data["postures"]["standing"][quantity] = value
+    with pytest.raises(ImplausibleMeasurements) as err:
+        patient_from_dict(data)
+    assert "posture 'standing'" in str(err.value) and all(w in str(err.value) for w in words), str(err.value)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", MeasurementWarning)
+        pm = patient_from_dict(data, allow_implausible=True)
+    assert any(note.startswith("implausible, run as asked: posture 'standing'") and words[0] in note
+               for note in pm.notes), pm.notes
+
+
+def test_the_rules_hold_for_the_models_own_measurements():
+    """Every cap of the model obeys them: the paper's Λ̄ solved on coarse, in all three postures."""
+    from breastcore.forward import ForwardModel
+    from breastcore.measure import measure
+    from breastcore.mesh import mesh_level
+    from breastcore.parameters import Parameters
+    from breastcore.patient import implausible
+    from breastcore.postures import paper_postures
+    mesh = mesh_level("coarse")
+    model = ForwardModel(mesh)
+    for params in (Parameters(), Parameters(R=0.07, H=0.03, mu_breast=40.0)):
+        values = []
+        for posture in paper_postures():
+            m = measure(mesh, model.solve(params, posture).position, "paper15")
+            values.append([m[q] for q in QUANTITIES])
+        measured = PatientMeasurements(paper_postures(), QUANTITIES, np.array(values))
+        assert implausible(measured) == []
+        bound = np.array(values)
+        assert np.all(bound[:, 1] >= np.pi * bound[:, 4] ** 2) and np.all(bound[:, 0] >= 2 * np.pi / 3 * bound[:, 4] ** 3)
 
 
 def test_dataclass_validation_and_direct_check():

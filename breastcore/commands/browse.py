@@ -11,11 +11,13 @@ _KEY_NUMBERS = {
     "mesh": ["reference_position", "tetrahedra"],
     "solve": ["newton_iterations", "gradient_norm", "tolerance", "converged", "min_det_F", "wall_time"],
     "measure": ["measurement"],
-    "identify": ["estimate", "interval_low", "interval_high", "relative_error", "cost", "singular_values"],
+    "identify": ["estimate", "interval_low", "interval_high", "determined", "relative_error", "cost",
+                 "singular_values"],
     "sensitivity": ["linearised", "finite"],
     "stability": ["outcome", "iterations", "min_det_F"],
     "extreme": ["guess_label", "guess_outcome", "guess_max_error"],
-    "scene": ["mean_abs_error", "wall_time", "nipple_displacement", "estimate"],
+    "scene": ["mean_abs_error", "verdict", "wall_time", "nipple_displacement", "estimate", "interval_low",
+              "interval_high", "determined"],
 }
 
 
@@ -28,13 +30,14 @@ def register(sub):
     q.set_defaults(run=run_list)
 
 
-def _labels(ds, dim, limit=40):
+def _labels(ds, dim, limit=40, exclude=()):
     """Names of the entries along ``dim``: its text coordinate, or the text variables along it
-    (e.g. ``method/mesh`` per run); None for numeric or long dimensions."""
+    (e.g. ``method/mesh`` per run) other than ``exclude`` (values shown as key numbers, such as
+    a verdict); None for numeric or long dimensions."""
     if not 0 < ds.sizes[dim] <= limit:
         return None
     columns = [ds[name].values for name in ds.variables
-               if ds[name].dims == (dim,) and ds[name].dtype.kind in "UOS"
+               if ds[name].dims == (dim,) and ds[name].dtype.kind in "UOS" and name not in exclude
                and not str(ds[name].values[0]).endswith(".nc")]          # file paths name nothing
     if not columns:
         return None
@@ -69,19 +72,37 @@ def describe(ds) -> str:
             lines.append(f"  {name} [{var.attrs.get('units', '')}] ({var.attrs.get('long_name', '')})"
                          + (f", by {' x '.join(var.dims)}" if var.dims else "") + ":")
             for dim in var.dims:
-                labels = _labels(ds, dim)
+                labels = _labels(ds, dim, exclude=_KEY_NUMBERS.get(a.get("stage"), []))
                 if labels:
                     lines.append(f"      {dim}: {', '.join(labels)}")
             values = np.array2string(np.asarray(var.values), threshold=200, max_line_width=100,
                                      formatter={"float_kind": "{:.4g}".format})
             lines.append("      " + values.replace("\n", "\n      "))
-    for key in ("success", "message", "mesh_level", "solver", "method", "measurement_set", "outcome_counts",
+    lines += _worth(ds)
+    if "success" in a:                          # the optimiser's flag: what the estimate is worth is the verdict
+        lines.append(f"  optimiser stopping test met: {'yes' if int(a['success']) else 'no'}")
+    for key in ("message", "mesh_level", "solver", "method", "measurement_set", "outcome_counts",
                 "guess_outcome_counts", "scene", "source"):
         if key in a:
             lines.append(f"  {key}: {a[key]}")
     lines.append(f"  provenance: breastcore {a.get('breastcore_version')} (source {a.get('source_hash')}), "
                  f"config {a.get('config_hash')}, created {a.get('created')}")
     return "\n".join(lines)
+
+
+def _worth(ds) -> list:
+    """Lines saying what an estimate is worth: its fit verdict, undetermined parameters, input notes."""
+    a, lines = ds.attrs, []
+    if "verdict" in a:
+        lines.append(f"  fit verdict: {a['verdict']}: {a.get('verdict_message', '')}")
+    if "determined" in ds and "parameter" in ds["determined"].dims and ds["determined"].ndim == 1:
+        loose = [str(p) for p, ok in zip(ds["parameter"].values, ds["determined"].values) if not ok]
+        if loose:
+            lines.append(f"  not determined by these measurements (95 % interval wider than a factor 10): "
+                         f"{', '.join(loose)}")
+    for note in json.loads(a.get("input_notes", "[]") or "[]"):
+        lines.append(f"  input note: {note}")
+    return lines
 
 
 def run_show(args):

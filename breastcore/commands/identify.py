@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import sys
+
 from ..cli import (UsageError, add_mesh_options, add_parameter_options, check_measurements, dataset_file, fraction,
                    mesh_from_args, non_negative_float, parameter_assignments, parameters_from_args, positive_float,
                    positive_int, writable_path)
@@ -101,12 +103,16 @@ def run(args):
     truth_values = [truth[k] for k in IDENTIFIED] if truth else None
     ds = identification_dataset(result, mm, target, problem, initial=initial, truth=truth_values, mesh_level=level)
     write_netcdf(ds, args.out)
-    for name, value, lo, hi in zip(IDENTIFIED, ds["estimate"].values, ds["interval_low"].values,
-                                   ds["interval_high"].values):
-        print(f"{name:>14s} = {value:.6g} {PARAMETER_INFO[name].units}  (95 %: {lo:.4g} … {hi:.4g})")
+    for name, value, lo, hi, ok, decades in zip(IDENTIFIED, ds["estimate"].values, ds["interval_low"].values,
+                                                ds["interval_high"].values, ds["determined"].values,
+                                                ds["interval_decades"].values):
+        interval = f"95 %: {lo:.4g} … {hi:.4g}" if ok else \
+            f"not determined by these measurements: its 95 % interval spans {decades:.3g} decades"
+        print(f"{name:>14s} = {value:.6g} {PARAMETER_INFO[name].units}  ({interval})")
     print(f"{'cost':>14s} = {result.cost[-1]:.3e} after {len(result.cost) - 1} iterations; {result.message}")
+    print(f"{'fit verdict':>14s} = {ds.attrs['verdict']}: {ds.attrs['verdict_message']}")
     print(f"wrote {args.out}")
-    if not result.success:
-        print(f"breastcore identify: did not converge: {result.message} (history saved)", file=__import__("sys").stderr)
+    if ds.attrs["verdict"] != "consistent":    # written, but not an estimate to use as it is
+        print(f"breastcore identify: {ds.attrs['verdict_message']} (history saved)", file=sys.stderr)
         return 1
     return 0

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import sys
+
 from ..cli import UsageError, dataset_file, existing_file, writable_path
 
 
@@ -13,6 +15,10 @@ def register(sub):
                    help="solution dataset (stage solve, from breastcore solve)")
     p.add_argument("--patient", type=existing_file(), metavar="FILE",
                    help="patient measurements (.yaml/.yml/.csv) in clinical units")
+    p.add_argument("--allow-implausible", action="store_true",
+                   help="with --patient: keep values that no shape of the model produces (back_depth > "
+                        "frontal_depth, area < π back_depth², volume < (2π/3) back_depth³), flagged in every "
+                        "output, instead of refusing them")
     p.add_argument("--set", dest="measurement_set", choices=["paper15", "exact"], default=None,
                    help="paper15 (tape and ruler formulas, default) or exact (mesh volume and skin area)")
     p.add_argument("--out", required=True, type=writable_path(), metavar="M.nc")
@@ -29,10 +35,12 @@ def run(args):
         raise UsageError("give exactly one of SOLUTION.nc or --patient FILE")
     if args.patient is not None:
         try:
-            target = load_patient(args.patient, args.measurement_set)
+            target = load_patient(args.patient, args.measurement_set, args.allow_implausible)
         except MeasurementError as err:
             raise UsageError(f"--patient: {err}") from None
         ds = measurement_dataset(target, "patient")
+        for note in target.notes:
+            print(f"breastcore measure: warning: {note}", file=sys.stderr)
     else:
         from ..problem import ProblemSpec
         solution = open_dataset(args.solution)

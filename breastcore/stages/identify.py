@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import logging
 
 from ..datasets import mesh_from_dataset, open_dataset, write_netcdf
@@ -34,5 +35,17 @@ def run_identify(spec, measure_path, mesh_path, out, config_hash=None):
                                 truth=[truth[k] for k in IDENTIFIED] if truth else None,
                                 mesh_level=mesh_ds.attrs["mesh_level"], config_hash=config_hash)
     write_netcdf(ds, out)
-    if not result.success:
-        log.warning("identification did not converge: %s", result.message)
+    log_verdict(ds)
+
+
+def log_verdict(ds):
+    """One log line with the fit verdict (a warning unless consistent) and the undetermined parameters."""
+    level = logging.INFO if ds.attrs["verdict"] == "consistent" else logging.WARNING
+    log.log(level, "fit verdict %s: %s; optimiser: %s", ds.attrs["verdict"], ds.attrs["verdict_message"],
+            ds.attrs["message"])
+    for note in json.loads(ds.attrs.get("input_notes", "[]")):
+        log.warning("patient input: %s", note)
+    loose = [str(p) for p, ok in zip(ds["parameter"].values, ds["determined"].values) if not ok]
+    if loose:
+        log.warning("not determined by these measurements (95 %% interval wider than a factor 10): %s",
+                    ", ".join(loose))

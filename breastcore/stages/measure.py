@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import logging
+
 import numpy as np
 
 from ..datasets import open_dataset, write_netcdf
@@ -9,13 +11,17 @@ from ..patient import PatientMeasurements, patient_from_dict
 from ..problem import ProblemSpec
 from ..targets import measure_solution, measurement_dataset
 
+log = logging.getLogger(__name__)
+
 
 def run_measure(spec, solution_path, out, config_hash=None):
     """A patient's values (``spec["patient"]``), or the solution's measurements with its problem spec."""
     if "patient" in spec:
         p = spec["patient"]
         target = patient_from_dict({"measurement_set": p["measurement_set"], "units": p["units"],
-                                    "postures": p["postures"]})
+                                    "postures": p["postures"]}, allow_implausible=p.get("allow_implausible", False))
+        for note in target.notes:
+            log.warning("patient input: %s", note)
         write_netcdf(measurement_dataset(target, "patient", config_hash=config_hash), out)
         return
     solution = open_dataset(solution_path)

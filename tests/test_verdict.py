@@ -1,0 +1,130 @@
+"""What an estimate is worth (issue #19): the fit verdict, undetermined parameters, and the absurd
+patients of the issue, end to end through the command line."""
+
+import json
+import subprocess
+import sys
+import warnings
+
+import numpy as np
+import pytest
+import yaml
+from scipy.stats import chi2
+
+from breastcore.datasets import open_dataset
+from breastcore.uncertainty import DETERMINED_FACTOR, Z95, determined, interval_decades, intervals, log_covariance
+from breastcore.verdict import FIT_QUANTILE, fit_verdict
+
+LABELS = [f"{p}:{q}" for p in ("standing", "bent45", "fours")
+          for q in ("volume", "area", "height", "frontal_depth", "back_depth")]
+
+
+def test_residuals_within_the_noise_are_consistent():
+    r = np.full(15, 0.05) * np.where(np.arange(15) % 2, 1, -1)         # T = 15 · 0.25 = 3.75 < 21.7
+    v = fit_verdict(True, r, np.ones(15), 0.10, LABELS)
+    assert v.verdict == "consistent" and v.dof == 9
+    assert v.statistic == pytest.approx(3.75) and v.threshold == pytest.approx(chi2.ppf(FIT_QUANTILE, 9))
+
+
+def test_a_measurement_the_model_ignores_is_a_misfit_that_names_it():
+    r = np.full(15, 1e-3)
+    r[0] = -0.9999994                                                  # the 1e9 ml volume of issue #19
+    v = fit_verdict(True, r, np.ones(15), 0.10, LABELS)
+    assert v.verdict == "misfit" and v.worst[0][0] == "standing:volume"
+    assert "standing:volume -100 %" in v.message and "cannot reproduce" in v.message
+
+
+def test_the_threshold_is_the_chi2_quantile_of_the_weighted_measurements():
+    weights = np.ones(15)
+    weights[5:] = 0                                                    # 5 + 2 weighted: dof 1
+    weights[5:7] = 1
+    just_below = np.sqrt(chi2.ppf(FIT_QUANTILE, 1) * 0.999 / 7) * 0.1
+    r = np.where(weights > 0, just_below, 5.0)                         # unweighted residuals are not tested
+    assert fit_verdict(True, r, weights, 0.10, LABELS).verdict == "consistent"
+    assert fit_verdict(True, r * 1.01, weights, 0.10, LABELS).verdict == "misfit"
+
+
+def test_not_converged_and_untestable_fits_say_so():
+    r = np.zeros(15)
+    assert fit_verdict(False, r, np.ones(15), 0.1, LABELS).verdict == "not_converged"
+    six = np.zeros(15)
+    six[:6] = 1
+    v = fit_verdict(True, np.full(15, 0.5), six, 0.1, LABELS)
+    assert v.verdict == "consistent" and v.dof == 0 and "no measurement beyond the six" in v.message
+
+
+def test_intervals_of_an_undetermined_parameter_are_marked_not_overflowed():
+    """λ_s's interval read 4e-5 … 2.4e11 Pa; a parameter the data hardly move overflowed to [0, inf]."""
+    rng = np.random.default_rng(0)
+    J = rng.normal(size=(15, 6))
+    J[:, 4] = 1e-7 * rng.normal(size=15)                               # the data hardly move λ_s: σ ≈ 1e6
+    cov = log_covariance(J, 0.10)
+    values = np.array([0.0562, 0.05, 1000.0, 150.0, 8000.0, 1600.0])
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")                                 # no overflow warning
+        low, high = intervals(values, cov)
+        decades = interval_decades(cov)
+    ok = determined(cov)
+    assert not ok[4] and ok[[0, 1, 2, 3, 5]].all()
+    assert np.isnan(low[4]) and np.isnan(high[4]) and np.isfinite(decades[4]) and decades[4] > 100
+    assert np.all(high[ok] / low[ok] <= DETERMINED_FACTOR)
+    J[:, 4] = 0.0                                                      # not at all: infinite, never zero, σ
+    blind = log_covariance(J, 0.10)
+    assert np.isinf(blind[4, 4]) and not determined(blind)[4] and np.isnan(intervals(values, blind)[0][4])
+    assert np.allclose(np.log10(high[ok] / low[ok]), decades[ok])
+    assert np.allclose(np.log(high[ok] / values[ok]), Z95 * np.sqrt(np.diag(cov))[ok])
+
+
+# -- the issue's inputs, end to end ------------------------------------------------------------
+EXAMPLE = {"standing": {"volume": 601, "area": 362, "height": 115, "frontal_depth": 51, "back_depth": 41},
+           "bent45": {"volume": 1235, "area": 303, "height": 92, "frontal_depth": 68, "back_depth": 66},
+           "fours": {"volume": 991, "area": 242, "height": 112, "frontal_depth": 66, "back_depth": 66}}
+
+
+def cli(*args):
+    return subprocess.run([sys.executable, "-m", "breastcore", *map(str, args)], capture_output=True, text=True)
+
+
+def patient_file(tmp_path, posture, quantity, value):
+    postures = json.loads(json.dumps(EXAMPLE))
+    postures[posture][quantity] = value
+    path = tmp_path / "patient.yaml"
+    path.write_text(yaml.safe_dump({"postures": postures}))
+    return path
+
+
+def test_an_area_of_one_square_centimetre_is_refused_before_any_solve(tmp_path):
+    out = cli("measure", "--patient", patient_file(tmp_path, "standing", "area", 1), "--out", tmp_path / "m.nc")
+    lines = out.stderr.strip().splitlines()
+    assert out.returncode == 2 and len(lines) == 1, out.stderr
+    assert "posture 'standing': area 1 cm2 is below π·back_depth² = 52.81 cm2" in lines[0]
+    assert not (tmp_path / "m.nc").exists()
+
+
+@pytest.mark.parametrize("quantity, value, allow, verdicts", [
+    ("volume", 1e9, False, {"misfit"}),                                 # plausible, but absurd: a misfit
+    # implausible, run as asked: R = H = 5 mm, moduli of 1-7 Pa, every measurement 88-100 % low, which
+    # was labelled converged; within 15 iterations it is not converged, later a misfit
+    ("area", 1, True, {"misfit", "not_converged"}),
+])
+def test_absurd_patients_are_never_labelled_a_success(tmp_path, quantity, value, allow, verdicts):
+    from breastcore.commands.browse import describe
+    from breastcore.scene import parameter_table
+    measured = tmp_path / "m.nc"
+    out = cli("measure", "--patient", patient_file(tmp_path, "standing", quantity, value), "--out", measured,
+              *(["--allow-implausible"] if allow else []))
+    assert out.returncode == 0, out.stderr
+    identified = tmp_path / "id.nc"
+    out = cli("identify", "--measurements", measured, "--mesh", "coarse", "--max-iterations", "15", "--out", identified)
+    ds = open_dataset(identified)
+    verdict = ds.attrs["verdict"]
+    assert verdict in verdicts and out.returncode == 1, out.stderr
+    assert out.stderr.splitlines()[-1] == f"breastcore identify: {ds.attrs['verdict_message']} (history saved)"
+    assert "standing:volume" in json.loads(ds.attrs["worst_measurements"])
+    assert ds.attrs["fit_statistic"] > ds.attrs["fit_threshold"]
+    table = parameter_table(ds)
+    assert set(table["fit_verdict"]) == {verdict}
+    shown = describe(ds)
+    assert f"fit verdict: {verdict}" in shown and "standing:volume" in shown
+    if allow:
+        assert "implausible, run as asked" in table["input_notes"][0] and "input note: implausible" in shown
