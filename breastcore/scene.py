@@ -16,7 +16,7 @@ from .targets import measure_solution
 
 
 def synthetic_summary(runs, paths, name, config_hash=None, tables=(), sensitivity=(), paper_table="none",
-                      truth=None, level_solutions=None) -> xr.Dataset:
+                      truth=None, level_solutions=None, truth_mesh="reference") -> xr.Dataset:
     """One row per identification run: mesh, offset, errors, cost, iterations, time, success.
 
     ``tables`` names the extra results-page tables of the scene (``levels``,
@@ -28,7 +28,9 @@ def synthetic_summary(runs, paths, name, config_hash=None, tables=(), sensitivit
     ``truth`` and ``level_solutions`` (``{level: path}``): the truth solution and a
     solution at the same parameters on each level; with both, the summary carries
     ``discretisation_error(level, posture, quantity) = M_level/M_truth − 1``. The truth's
-    parameters become the summary's ``parameters`` attribute.
+    parameters become the summary's ``parameters`` attribute. ``truth_mesh`` (attribute
+    of the same name) is the level the data were solved on, or ``"same"`` when each level
+    identifies data solved on itself.
     """
     rows = [open_dataset(p) for p in paths]
     rel = np.array([ds["relative_error"].values for ds in rows])
@@ -84,7 +86,7 @@ def synthetic_summary(runs, paths, name, config_hash=None, tables=(), sensitivit
     ds = xr.Dataset(data, coords=coords)
     truth_parameters = json.loads(open_dataset(truth).attrs.get("parameters", "{}")) if truth else None
     ds.attrs = provenance("scene", truth_parameters, config_hash, scene=name, scene_kind="synthetic",
-                          tables=",".join(tables),
+                          tables=",".join(tables), truth_mesh=truth_mesh,
                           paper_table=paper_table,
                           title=f"synthetic identification study {name}", **extra)
     return ds

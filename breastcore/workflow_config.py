@@ -394,7 +394,11 @@ def validate_config(config, schema_path) -> dict:
             names = [m["name"] for m in scene["methods"]]
             if len(set(names)) != len(names):
                 raise ConfigError(f"config key {where}.methods: repeated method name in {names}")
-            _levels([scene["truth_mesh"]], f"{where}.truth_mesh")
+            if scene["truth_mesh"] != "same":
+                _levels([scene["truth_mesh"]], f"{where}.truth_mesh")
+            elif "levels" in scene.get("tables", []):
+                raise ConfigError(f"config key {where}.tables: 'levels' compares each level with the truth mesh, "
+                                  f"and truth_mesh 'same' has none (every gap would be 0)")
             _levels(scene["meshes"], f"{where}.meshes")
             for i, method in enumerate(scene["methods"]):
                 _levels(method.get("meshes", []), f"{where}.methods[{i}].meshes")

@@ -91,10 +91,21 @@ class Plan:
     # -- scenes -----------------------------------------------------------------------
     def _synthetic(self, name, scene):
         postures = _postures(scene["postures"])
-        truth_mesh = self.mesh(scene["truth_mesh"], scene["truth"]["R"], scene["truth"]["H"])
-        truth = self.solve(truth_mesh, scene["truth"], postures)
-        measured = self._add("measure", {"solution": truth, "measurement_set": scene["measurement_set"],
-                                         "noise": scene["noise"], "seed": scene["seed"]})
+
+        def truth_on(mesh_path):
+            solution = self.solve(mesh_path, scene["truth"], postures)
+            return solution, self._add("measure", {"solution": solution, "measurement_set": scene["measurement_set"],
+                                                   "noise": scene["noise"], "seed": scene["seed"]})
+
+        # truth_mesh "same": each level identifies data solved on itself (the paper's Table 1
+        # layout, an inverse crime); otherwise on a level that gmsh meshes at the true (R, H)
+        same = scene["truth_mesh"] == "same"
+        if not same:
+            truth, measured = truth_on(self.mesh(scene["truth_mesh"], scene["truth"]["R"], scene["truth"]["H"]))
+        levels_run = dict.fromkeys(level for m in scene["methods"] for level in m.get("meshes", scene["meshes"]))
+        truths = {level: truth_on(self.mesh(level)) for level in levels_run} if same else {}
+        if same:
+            truth = next(iter(truths.values()))[0]
         runs = []
         for m in scene["methods"]:
             ident = {**scene["identification"], "method": m.get("method", "lm"),
@@ -105,7 +116,7 @@ class Plan:
                     guesses = initial_guesses(scene["truth"], offset, scene["starts"], scene["seed"])
                     guesses = guesses[:self.max_starts] if self.max_starts else guesses
                     for i, guess in enumerate(guesses):
-                        path = self.identify(measured, level, guess, ident, solver)
+                        path = self.identify(truths[level][1] if same else measured, level, guess, ident, solver)
                         runs.append({"method": m["name"], "mesh": level, "offset": offset, "start": i,
                                      "identification": path})
         sens = [self.sensitivity(r["identification"], scene["sensitivity"]) for r in runs[:1]
@@ -116,7 +127,7 @@ class Plan:
         level_solutions = {level: self.solve(self.mesh(level), scene["truth"], postures) for level in levels}
         return self._scene(name, "synthetic", {"runs": runs, "truth": truth, "sensitivity": sens, "tables": tables,
                                                "paper_table": scene.get("paper_table", "none"),
-                                               "level_solutions": level_solutions})
+                                               "level_solutions": level_solutions, "truth_mesh": scene["truth_mesh"]})
 
     def _patient(self, name, scene):
         postures = {k: dict(v) for k, v in scene["postures"].items()}

@@ -10,6 +10,7 @@ import pytest
 import yaml
 
 from breastcore.workflow_config import ConfigError, validate_config
+from breastcore.workflow_plan import Plan
 
 ROOT = Path(__file__).resolve().parents[1]
 SCHEMA = ROOT / "workflow/schemas/config.schema.yaml"
@@ -464,3 +465,21 @@ def test_a_config_error_ends_the_program_with_one_line():
     with pytest.raises(KeyError):                                 # any other error is Snakemake's to print
         with config_errors_exit():
             raise KeyError("x")
+
+
+def test_same_mesh_truth_solves_each_levels_data_on_that_level():
+    """The paper's Table 1 layout: each level identifies data solved on its own mesh (no gmsh truth mesh)."""
+    config = copy.deepcopy(DEFAULT)
+    config["scenes"]["same"] = {"kind": "synthetic", "truth_mesh": "same", "meshes": ["coarse", "medium"],
+                                "offsets": [0.1, 0.3], "starts": 2}
+    plan = Plan(validate_config(config, SCHEMA))
+    runs = plan.scenes["same"]["runs"]
+    assert len(runs) == 2 * 2 * 2
+    for run in runs:
+        spec = plan.jobs["identify"][run["identification"]]
+        solution = plan.jobs["solve"][plan.jobs["measure"][spec["measurements"]]["solution"]]
+        assert solution["mesh"] == spec["mesh"] == f"results/mesh/{run['mesh']}.nc"
+        assert solution["parameters"]["mu_breast"] == 150.0
+    assert not any("direct" in path for path in plan.scene_datasets("same"))
+    msg = _bad(lambda c: c["scenes"].update(same={"kind": "synthetic", "truth_mesh": "same", "tables": ["levels"]}))
+    assert "scenes.same.tables" in msg and "same" in msg

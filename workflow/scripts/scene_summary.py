@@ -15,7 +15,8 @@ def main(snakemake):
             ds = synthetic_summary(spec["runs"], [r["identification"] for r in spec["runs"]], name, spec_key(spec),
                                    tables=spec.get("tables", []), sensitivity=spec.get("sensitivity", []),
                                    paper_table=spec.get("paper_table", "none"), truth=spec["truth"],
-                                   level_solutions=spec.get("level_solutions"))
+                                   level_solutions=spec.get("level_solutions"),
+                                   truth_mesh=spec.get("truth_mesh", "reference"))
         else:
             source = spec["identification"] if spec["kind"] == "patient" else spec["solution"]
             ds = solution_summary(source, name, spec["kind"], spec_key(spec))
