@@ -11,7 +11,7 @@ For each mesh level, at the cold standing equilibrium of the reference parameter
 - ``exact``: :meth:`EquilibriumProblem.hessian` (compiled bulk scatter);
 - ``projected``: ``hessian(project=True)``, the bulk's tangent modulus ∂²W/∂F²
   projected through its analytic eigensystem in a compiled loop, the skin blocks by
-  ``eigh`` (what the solver uses since the tenth session);
+  ``eigh`` (what the solver uses since 01f4f21, 2026-11-22);
 - ``12×12 eigh``: the method before it, every bulk and skin element block built in
   numpy and projected by a batched ``eigh`` (:func:`breastcore.energy.project_psd`),
   then assembled. Kept here, not in the package, as the baseline.
