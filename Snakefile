@@ -32,6 +32,7 @@ include: "workflow/rules/measure.smk"
 include: "workflow/rules/identify.smk"
 include: "workflow/rules/sensitivity.smk"
 include: "workflow/rules/studies.smk"
+include: "workflow/rules/calibration.smk"
 include: "workflow/rules/report.smk"
 
 

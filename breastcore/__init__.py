@@ -11,7 +11,7 @@ __version__ = "0.1.0"
 
 
 #: The workflow's compute stages: one module each in :mod:`breastcore.stages`.
-STAGES = ("mesh", "solve", "measure", "identify", "sensitivity", "stability", "extreme")
+STAGES = ("mesh", "solve", "measure", "identify", "sensitivity", "stability", "extreme", "calibrate", "uniqueness")
 
 
 def stage_hash(stage: str, root=None) -> str:

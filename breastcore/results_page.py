@@ -342,4 +342,7 @@ def render(summaries, commands):
                 parts.append(sensitivity_section(name, ds))
         elif kind == "stability":
             parts.append(stability_section(name, ds))
+        elif kind == "calibration":
+            from .calibration_scene import calibration_section
+            parts.append(calibration_section(name, ds))
     return "\n".join(parts)

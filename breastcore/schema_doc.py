@@ -14,7 +14,8 @@ from pathlib import Path
 
 import xarray as xr
 
-STAGES = ("mesh", "solve", "measure", "identify", "sensitivity", "stability", "extreme", "scene")
+STAGES = ("mesh", "solve", "measure", "identify", "sensitivity", "stability", "extreme", "calibrate", "uniqueness",
+          "scene")
 _ROW = re.compile(r"^\| `(?P<name>[^`]+)` (?:coordinate)? *\| \((?P<dims>[^)]*)\) \| `(?P<units>[^`]*)` \|")
 
 INTRO = """# Result datasets
@@ -35,11 +36,12 @@ paths relative to the results folder; `breastcore list` uses it to name the scen
 shared mesh, solve or identification serves.
 
 The `problem` attribute (JSON, `breastcore.problem.ProblemSpec`) of the `solve`, `measure`
-(synthetic data only), `identify`, `sensitivity`, `stability` and `extreme` datasets is the
-problem they were computed with: `parameters` (Λ and the constants ρ, g, c, δ, t_s, θ_D; an
-identification's initial guess), `solver` (every `SolverOptions` field), `postures` (name and
-angle), `measurement_set` and `identification` (every `IdentificationOptions` field, the
-warm-start radius included; null where nothing is identified). Later stages rebuild their
+(synthetic data only), `identify`, `sensitivity`, `stability`, `extreme`, `calibrate` and
+`uniqueness` datasets is the problem they were computed with: `parameters` (Λ and the
+constants ρ, g, c, δ, t_s, θ_D; an identification's initial guess, a calibration job's
+truth), `solver` (every `SolverOptions` field), `postures` (name and angle),
+`measurement_set` and `identification` (every `IdentificationOptions` field, the warm-start
+radius included; null where nothing is identified). Later stages rebuild their
 model from it and from nothing else: a sensitivity re-identifies exactly the problem of its
 identification, on the mesh the identification dataset keeps in `model_reference_position`.
 Reading a spec with a missing or unknown field is an error, never a default.

@@ -22,7 +22,7 @@ from .mesh import LEVEL_MESH_SIZE
 from .parameters import IDENTIFIED
 from .postures import PAPER_POSTURES, PostureError, parse_posture
 
-SCENE_KINDS = ("synthetic", "patient", "forward", "stability")
+SCENE_KINDS = ("synthetic", "patient", "forward", "stability", "calibration")
 
 
 #: A number in exponent form, which YAML 1.1 reads as text unless written like 1.0e+3.
@@ -363,6 +363,28 @@ def _fixed_iterations(scene, methods, where):
                           f"and this scene runs {', '.join(sorted(set(methods)))}")
 
 
+def _calibration(scene, where):
+    """The levels and postures of a calibration scene name ones it has (its schema checks the numbers)."""
+    _levels(scene["levels"], f"{where}.levels")
+    for key in ("reference", "compare_level", "probe_level", "jacobian_level", "truth_mesh"):
+        _levels([scene[key]], f"{where}.{key}")
+    _levels(scene["identify_meshes"], f"{where}.identify_meshes")
+    if scene["reference"] in scene["levels"]:
+        raise ConfigError(f"config key {where}.levels: lists the reference level {scene['reference']!r}, which every "
+                          f"level is compared with")
+    if scene["compare_level"] not in scene["levels"]:
+        raise ConfigError(f"config key {where}.compare_level: {scene['compare_level']!r} is not one of levels "
+                          f"({', '.join(scene['levels'])})")
+    if scene["jacobian_level"] not in (*scene["levels"], scene["reference"]):
+        raise ConfigError(f"config key {where}.jacobian_level: {scene['jacobian_level']!r} is neither one of levels "
+                          f"nor the reference")
+    _postures(scene["postures"], f"{where}.postures")
+    if scene["det_F_posture"] not in [parse_posture(t).name for t in scene["postures"]]:
+        raise ConfigError(f"config key {where}.det_F_posture: {scene['det_F_posture']!r} is not one of postures")
+    _cap(scene["truth"], f"{where}.truth")
+    _fixed_iterations(scene, [scene["identification"]["method"]], where)
+
+
 def validate_config(config, schema_path) -> dict:
     """Validated copy of ``config`` with every default filled in. Raises ConfigError."""
     root = load_schema(schema_path)
@@ -421,6 +443,8 @@ def validate_config(config, schema_path) -> dict:
         elif kind == "stability":
             _levels(scene["meshes"], f"{where}.meshes")
             _postures(scene["grid"]["posture"], f"{where}.grid.posture")
+        elif kind == "calibration":
+            _calibration(scene, where)
         else:
             _levels([scene["mesh"]], f"{where}.mesh")
             _postures(scene["postures"], f"{where}.postures")

@@ -14,6 +14,8 @@ Paths (under ``results/``)::
     sensitivity/{key}.nc                    sensitivity dataset
     stability/{key}.nc                      one chunk of a stability scene's grid
     extreme/{key}.nc                        identifications from extreme guesses on one level
+    calibrate/{key}.nc                      a calibration scene's cold solves on one level, for one c
+    uniqueness/{key}.nc                     a calibration scene's uniqueness probe, for one c
     scenes/{scene}/summary.nc               the scene's summary; attrs["datasets"] lists the above it uses
     scenes/{scene}/...                      per-scene tables and figures (report)
 """
@@ -57,7 +59,7 @@ class Plan:
         self.run_scenes = config.get("run_scenes") or list(config["scenes"])
         self.max_starts = config.get("max_starts")
         self.jobs = {"mesh": {}, "solve": {}, "measure": {}, "identify": {}, "sensitivity": {}, "stability": {}, "extreme": {},
-                     "scene": {}}
+                     "calibrate": {}, "uniqueness": {}, "scene": {}}
         self.scenes = {}
         for name, scene in config["scenes"].items():
             self.scenes[name] = getattr(self, f"_{scene['kind']}")(name, scene)
@@ -75,14 +77,16 @@ class Plan:
         spec = {"level": level, "R": R, "H": H, "fold_angle": self.constants["fold_angle"]}
         return self._add("mesh", spec, f"{self.results}/mesh/{level}-direct-{spec_key(spec)}.nc")
 
-    def solve(self, mesh_path, parameters, postures):
-        spec = {"mesh": mesh_path, "parameters": {**self.constants, **parameters}, "postures": postures,
-                "solver": self.solver}
+    def solve(self, mesh_path, parameters, postures, constants=None):
+        """``constants``: a scene's own, in place of the config's (the calibration scene's c)."""
+        spec = {"mesh": mesh_path, "parameters": {**(constants or self.constants), **parameters},
+                "postures": postures, "solver": self.solver}
         return self._add("solve", spec)
 
-    def identify(self, measure_path, level, initial, identification, solver=None):
+    def identify(self, measure_path, level, initial, identification, solver=None, constants=None):
         spec = {"measurements": measure_path, "mesh": self.mesh(level), "initial": initial,
-                "constants": self.constants, "solver": solver or self.solver, "identification": identification}
+                "constants": constants or self.constants, "solver": solver or self.solver,
+                "identification": identification}
         return self._add("identify", spec)
 
     def sensitivity(self, identify_path, mode):
@@ -162,6 +166,10 @@ class Plan:
                    for level in scene["meshes"] if scene["extreme_guesses"]]
         return self._scene(name, "stability", {"chunks": chunks, "guesses": guesses})
 
+    def _calibration(self, name, scene):
+        from .calibration_plan import plan_calibration
+        return self._scene(name, "calibration", plan_calibration(self, scene))
+
     def _scene(self, name, kind, spec):
         spec = {"kind": kind, **spec}
         folder = f"{self.results}/scenes/{name}"
@@ -174,6 +182,9 @@ class Plan:
         folder = f"{self.results}/scenes/{name}"
         if spec["kind"] == "stability":
             return [f"{folder}/stability_map.png", f"{folder}/stability.csv"]
+        if spec["kind"] == "calibration":
+            from .calibration_plan import calibration_figures
+            return calibration_figures(folder)
         if spec["kind"] == "synthetic":
             out = [f"{folder}/convergence.png", f"{folder}/parameter_errors.csv", f"{folder}/error_vs_runtime.png"]
         else:
@@ -198,6 +209,9 @@ class Plan:
             return [spec["identification"], *spec["sensitivity"]]
         if spec["kind"] == "stability":
             return spec["chunks"] + spec.get("guesses", [])
+        if spec["kind"] == "calibration":
+            from .calibration_plan import calibration_inputs
+            return calibration_inputs(spec)
         return [spec["solution"]]
 
     def scene_datasets(self, name):

@@ -38,6 +38,12 @@ TINY = {
                                "fours": {"volume": 1014, "area": 238, "height": 105, "frontal_depth": 68,
                                          "back_depth": 68}}},
         "fwd": {"kind": "forward", "mesh": "coarse", "postures": ["standing"]},
+        # Two values of c, coarse against medium, the truth and one admissible corner (H×1.3
+        # is no cap: recorded, not solved); its truth solve and measurements are syn's (c = 100).
+        "cal": {"kind": "calibration", "grid": [1000.0, 100.0], "levels": ["coarse"], "reference": "medium",
+                "compare_level": "coarse", "jacobian_level": "coarse", "probe_level": "coarse",
+                "box_parameters": ["H"], "box_factors": [0.9, 1.3], "identify_meshes": ["coarse"], "starts": 1, "seed": 0,
+                "truth_mesh": "medium", "identification": {"max_iterations": 2}},
     },
 }
 
@@ -95,7 +101,8 @@ def test_every_dataset_has_units_long_names_and_provenance(workdir):
             assert key in ds.attrs, (path, key)
         stages.add(ds.attrs["stage"])
         ds.close()
-    assert stages == {"mesh", "solve", "measure", "identify", "sensitivity", "stability", "extreme", "scene"}
+    assert stages == {"mesh", "solve", "measure", "identify", "sensitivity", "stability", "extreme", "calibrate",
+                      "uniqueness", "scene"}
 
 
 def test_solution_dataset_follows_its_contract(workdir):
@@ -128,6 +135,14 @@ def test_scene_outputs_exist(workdir):
     assert (scenes / "grid/stability_map.png").exists() and (scenes / "grid/stability.csv").exists()
     assert grid.sizes["guess"] == 5 and set(grid["guess_outcome"].values) <= {
         "recovered", "wrong_minimum", "not_converged", "solve_error"}        # never a crash
+    assert (scenes / "cal/table2_residual.png").stat().st_size > 0
+    cal = xr.open_dataset(scenes / "cal/summary.nc")
+    assert list(cal["chassaignac"].values) == [100.0, 1000.0] and list(cal["admissible"].values) == [1, 1, 0]
+    assert cal["identification_error"].shape == (2, 1, 1) and "chosen_chassaignac" in cal.attrs
+    # at c = 100 (the constants' c) its truth solve and measurements are syn's, one job each
+    with xr.open_dataset(scenes / "syn/summary.nc") as syn:
+        shared = set(json.loads(syn.attrs["datasets"])) & set(json.loads(cal.attrs["datasets"]))
+    assert sorted(p.split("/")[0] for p in shared) == ["measure", "mesh", "mesh", "solve"]
     assert not (scenes / "fwd/shape_fours.png").exists()            # not asked for: not computed
     assert not (scenes / "fwd/sensitivity.png").exists()
     assert (scenes / "alice/sensitivity.png").exists()
@@ -197,7 +212,7 @@ def test_changing_one_patient_measurement_reruns_only_that_patient(workdir):
 
 def test_changing_one_scene_mesh_reruns_only_that_scene(workdir):
     config = copy.deepcopy(TINY)
-    config["scenes"]["syn"]["meshes"] = ["medium"]
+    config["scenes"]["syn"]["meshes"] = ["medium-thin"]        # a level no other scene meshes (cal has medium)
     jobs = planned_jobs(workdir, config)
     # The level mesh, the level's solve at the truth (the `levels` table), both methods'
     # identifications on it and the first one's sensitivity; the truth solve and its
@@ -205,7 +220,7 @@ def test_changing_one_scene_mesh_reruns_only_that_scene(workdir):
     assert Counter(r for r, _ in jobs) == Counter({
         "all": 1, "mesh": 1, "solve": 1, "identify": 2, "sensitivity": 1, "scene_summary": 1,
         "convergence_figure": 1, "error_table": 1, "error_vs_runtime_figure": 1, "sensitivity_figure": 1})
-    assert ("mesh", "results/mesh/medium.nc") in jobs
+    assert ("mesh", "results/mesh/medium-thin.nc") in jobs
     for rule, output in jobs:
         assert rule in ("all", "mesh", "solve", "identify", "sensitivity") or output.startswith("results/scenes/syn/"), \
             (rule, output)
@@ -246,7 +261,8 @@ def test_list_and_show_browse_every_dataset(workdir, capsys):
     files = sorted((workdir / "results").rglob("*.nc"))
     assert sorted(rows) == sorted(str(p) for p in files)
     stages = {row[0] for row in rows.values()}
-    assert stages == {"mesh", "solve", "measure", "identify", "sensitivity", "stability", "extreme", "scene"}
+    assert stages == {"mesh", "solve", "measure", "identify", "sensitivity", "stability", "extreme", "calibrate",
+                      "uniqueness", "scene"}
     for name in TINY["scenes"]:                                   # a summary names its own scene
         assert rows[str(workdir / f"results/scenes/{name}/summary.nc")][:2] == ["scene", name]
     # a stage dataset names the scenes it serves: the coarse mesh all four, a patient's
@@ -308,6 +324,7 @@ def test_results_page_is_generated_from_scene_summaries(workdir):
     page = (workdir / "docs/results.md").read_text()
     assert page.startswith("# Results") and "Machine:" in page
     assert "Scene `grid`: stability" in page and "Scene `syn`: parameter error" in page
+    assert "Scene `cal`: calibration of the Chassaignac coefficient c" in page and "**Rule**: the smallest c" in page
     assert "**Beside the paper's Table 1**" in page                   # the paper's Table 1 beside ours
     assert re.search(r"\| coarse +\| paper +\| +0\.08 +\| +0\.39 +\| +0\.42 +\| +0\.89 +\| +0\.27 +\| +2\.77 +\|", page)
 
@@ -333,7 +350,8 @@ def test_report_is_self_contained_html_with_every_figure(workdir):
         ("Sensitivity", "alice"): ["sensitivity.png"], ("Sensitivity", "syn"): ["sensitivity.png"],
         ("Solver diagnostics", "alice"): ["diagnostics.csv"], ("Solver diagnostics", "fwd"): ["diagnostics.csv"],
         ("Error against run time", "syn"): ["error_vs_runtime.png"],
-        ("Stability", "grid"): ["stability.csv", "stability_map.png"]}
+        ("Stability", "grid"): ["stability.csv", "stability_map.png"],
+        ("Calibration", "cal"): ["table2_residual.png"]}
 
 
 def test_a_scene_plans_only_what_it_needs(tmp_path):

@@ -298,8 +298,10 @@ def test_compute_hash_covers_exactly_the_modules_the_compute_rules_import(tmp_pa
 @pytest.mark.parametrize("module, changed", [
     ("stability.py", {"stability"}),
     ("identify.py", {"identify", "sensitivity", "extreme"}),
-    ("forward.py", {"solve", "measure", "identify", "sensitivity", "stability", "extreme"}),
+    ("forward.py", {"solve", "measure", "identify", "sensitivity", "stability", "extreme", "calibrate", "uniqueness"}),
     ("extreme_guesses.py", {"extreme"}),
+    ("calibration.py", {"calibrate", "uniqueness"}),
+    ("calibration_scene.py", set()),
     ("results_page.py", set()),
     ("workflow_plan.py", set()),
 ])

@@ -1,5 +1,6 @@
 """Snakemake script of the scene_summary rule: one summary dataset per scene."""
 
+from breastcore.calibration_scene import calibration_summary
 from breastcore.datasets import write_netcdf
 from breastcore.logs import log_to
 from breastcore.scene import record_datasets, solution_summary, stability_summary, synthetic_summary
@@ -11,6 +12,8 @@ def main(snakemake):
     with log_to(snakemake.log[0]):
         if spec["kind"] == "stability":
             ds = stability_summary(spec["chunks"], name, spec_key(spec), guesses=spec.get("guesses", []))
+        elif spec["kind"] == "calibration":
+            ds = calibration_summary(spec, name, spec_key(spec))
         elif spec["kind"] == "synthetic":
             ds = synthetic_summary(spec["runs"], [r["identification"] for r in spec["runs"]], name, spec_key(spec),
                                    tables=spec.get("tables", []), sensitivity=spec.get("sensitivity", []),

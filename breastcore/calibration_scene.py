@@ -1,0 +1,380 @@
+"""The calibration scene of the Chassaignac coefficient c (issue #18): its jobs, summary, figure and page section.
+
+For each c of a grid, at the truth Λ̄ (the paper's by default) and at the corners of
+a box around it, the scene measures what the choice of c does to the model:
+
+- the paper's Table-2 residual per level at Λ̄, ``mean_i (M_i(level)/M_i(reference) − 1)²``;
+- the sliding margin ``c / (ρ g V/|Γ_B|)`` (:mod:`breastcore.sliding`);
+- the standing min det F on every level up to the reference, and the largest relative
+  difference of the measurements between a fine level and the reference;
+- the uniqueness probe at Λ̄ (:func:`breastcore.calibration.nonlinearity`);
+- the singular values of the relative Jacobian at Λ̄ on one level;
+- cross-mesh identifications (truth on the reference level meshed by gmsh at the
+  true R, H), through the plan's ordinary mesh, solve, measure and identify jobs.
+
+Then :func:`breastcore.chassaignac_rule.choose_chassaignac` picks the default c. The
+jobs are planned by :mod:`breastcore.calibration_plan` and computed by
+:mod:`breastcore.calibration`; this module reads them back into the scene summary and
+the report.
+"""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pandas as pd
+import xarray as xr
+
+from . import paper_values as paper
+from .calibration_plan import FIGURE, SHORT
+from .chassaignac_rule import CRITERIA, choose_chassaignac
+from .datasets import _var, open_dataset, provenance
+from .mesh import LEVEL_NODE_COUNTS
+from .parameters import IDENTIFIED, PARAMETER_INFO, ParameterError, Parameters
+from .sliding import slip_threshold
+
+
+# -- summary --------------------------------------------------------------------------
+def calibration_summary(spec, name, config_hash=None) -> xr.Dataset:
+    """The scene summary: every quantity of the study per c, the rule's verdict and the chosen c.
+
+    Parameters
+    ----------
+    spec : dict
+        The scene spec of :func:`plan_calibration`.
+    name : str
+    config_hash : str, optional
+
+    Returns
+    -------
+    xarray.Dataset
+        Dimensions ``chassaignac`` (c, Pa), ``level`` (the levels, then the
+        reference), ``point`` (truth, then the box corners), ``posture``,
+        ``quantity``, ``parameter``, ``criterion``; the chosen c in the attribute
+        ``chosen_chassaignac`` (NaN when no c of the grid satisfies the rule) and
+        the sentence ``choice``.
+
+    Notes
+    -----
+    With ``M(ℓ, p)`` the 15 measurements of level ``ℓ`` at point ``p`` and ``r`` the
+    reference level:
+
+    - ``table2_residual(c, ℓ) = mean_i (M_i(ℓ, Λ̄)/M_i(r, Λ̄) − 1)²``, the paper's Table 2;
+    - ``measurement_difference(c, p) = max_i |M_i(compare, p)/M_i(r, p) − 1|``;
+    - ``sliding_margin(c, p) = c / (ρ g V(p)/|Γ_B(p)|)``;
+    - ``identification_error(c, mesh, start) = mean_j |Λ̂_j/Λ̄_j − 1|``.
+
+    A value from a solve that did not converge is NaN, and fails the rule.
+    """
+    cases = spec["cases"]
+    levels = [*spec["levels"], spec["reference"]]
+    c_values = np.array([case["chassaignac"] for case in cases], float)
+    per_level = [[open_dataset(case["levels"][level]) for level in levels] for case in cases]
+    first = per_level[0][0]
+    labels = [str(v) for v in first["point"].values]
+    postures = [str(v) for v in first["posture"].values]
+
+    def stack(variable):
+        return np.array([[ds[variable].values for ds in row] for row in per_level])   # (c, level, point, posture...)
+
+    measurement = stack("measurement")
+    converged = stack("converged").astype(bool)
+    min_det = np.where(converged, stack("min_det_F"), np.nan)
+    ratio = measurement[:, :-1] / measurement[:, -1:] - 1.0                  # (c, level, point, posture, quantity)
+    residual = np.mean(ratio[:, :, 0] ** 2, axis=(2, 3))                    # at the truth, point 0
+    compare = spec["levels"].index(spec["compare_level"])
+    difference = np.max(np.abs(ratio[:, compare]), axis=(2, 3))              # (c, point)
+    standing = min_det[..., postures.index(spec["det_F_posture"])]           # (c, level, point)
+
+    points = [_parameters(spec["constants"], p["parameters"]) for p in spec["points"]]
+    admissible = np.array([p is not None for p in points])
+    threshold = np.array([slip_threshold(p) if p is not None else np.nan for p in points])
+    probes = [open_dataset(case["uniqueness"]) for case in cases]
+    jacobian = [row[levels.index(spec["jacobian_level"])] for row in per_level]
+
+    table = criteria_table(c_values, levels, labels, admissible, standing, difference,
+                           np.array([ds["nonlinearity"].values for ds in probes]), spec)
+    choice = choose_chassaignac(table, **spec["criteria"])
+    criteria = list(CRITERIA)
+    parameter_units = " ".join(PARAMETER_INFO[p].units for p in IDENTIFIED)
+    data = {
+        "measurement": _var(("chassaignac", "level", "point", "posture", "quantity"), measurement,
+                            str(first["measurement"].attrs["units"]),
+                            "cold-solve measurements (NaN unless converged); units per quantity in quantity_units"),
+        "converged": _var(("chassaignac", "level", "point", "posture"), converged.astype(np.int8), "1",
+                          "1 where the cold solve converged"),
+        "outcome": _var(("chassaignac", "level", "point", "posture"), stack("outcome").astype(str), "1",
+                        "how the cold solve ended (converged, solve_error, inadmissible, crash)"),
+        "message": _var(("chassaignac", "level", "point", "posture"), stack("message").astype(str), "1",
+                        "failure diagnostics of the cold solve (empty when converged)"),
+        "min_det_F": _var(("chassaignac", "level", "point", "posture"), min_det, "1",
+                          "smallest det F of the converged cold solve (NaN unless converged)"),
+        "iterations": _var(("chassaignac", "level", "point", "posture"), stack("iterations"), "1",
+                           "minimiser iterations of the cold solve"),
+        "wall_time": _var(("chassaignac", "level", "point", "posture"), stack("wall_time"), "s",
+                          "wall time of the cold solve"),
+        "point_parameters": _var(("point", "parameter"), first["point_parameters"].values, parameter_units,
+                                 "Λ of the point; units per parameter in parameter_units"),
+        "admissible": _var(("point",), admissible.astype(np.int8), "1",
+                           "1 where the point is a cap (0 < H < R); 0: left out, not solved"),
+        "slip_threshold": _var(("point",), threshold, "Pa",
+                               "ρ g V/|Γ_B| of the gravity-free cap at the point (NaN if inadmissible)"),
+        "sliding_margin": _var(("chassaignac", "point"), c_values[:, None] / threshold[None, :], "1",
+                               "c / (ρ g V/|Γ_B|): above 1 the back holds the standing breast by friction alone"),
+        "table2_residual": _var(("chassaignac", "table2_level"), residual, "1",
+                                f"mean over the measurements of (M_level/M_{spec['reference']} − 1)² at the truth "
+                                "(the paper's Table 2)"),
+        "paper_table2_residual": _var(("table2_level",),
+                                      np.array([paper.TABLE2.get(lv, {}).get("residual", np.nan)
+                                                for lv in spec["levels"]]), "1",
+                                      "the paper's Table 2 residual of the level of the same node count (NaN: none)"),
+        "standing_min_det_F": _var(("chassaignac", "level", "point"), standing, "1",
+                                   f"min det F in posture {spec['det_F_posture']} (NaN unless converged)"),
+        "measurement_difference": _var(("chassaignac", "point"), difference, "1",
+                                       f"max over the measurements of |M_{spec['compare_level']}/"
+                                       f"M_{spec['reference']} − 1| (NaN unless all converged)"),
+        "nonlinearity": _var(("chassaignac", "parameter"), np.array([ds["nonlinearity"].values for ds in probes]),
+                             "1", f"uniqueness probe on {spec['probe_level']} at the truth: max_i |(M_i(+) − M_i(0)) − "
+                                  "(M_i(0) − M_i(−))| / |M_i(0)|"),
+        "first_difference": _var(("chassaignac", "parameter"),
+                                 np.array([ds["first_difference"].values for ds in probes]), "1",
+                                 "uniqueness probe: max_i |M_i(+) − M_i(−)| / (2 |M_i(0)|)"),
+        "singular_value": _var(("chassaignac", "singular"), np.array([ds["singular_value"].values for ds in jacobian]),
+                               "1", f"singular values of the relative Jacobian ∂ln M/∂ln Λ at the truth on "
+                                    f"{spec['jacobian_level']}"),
+        "relative_jacobian": _var(("chassaignac", "posture", "quantity", "parameter"),
+                                  np.array([ds["relative_jacobian"].values for ds in jacobian]), "1",
+                                  f"relative Jacobian ∂ln M/∂ln Λ at the truth on {spec['jacobian_level']}"),
+        "criterion_passed": _var(("chassaignac", "criterion"),
+                                 np.array([[int(choice.passed[c][k]) for k in criteria] for c in c_values], np.int8),
+                                 "1", "1 where every check of the criterion passes"),
+        "passed": _var(("chassaignac",), np.array([int(all(choice.passed[c].values())) for c in c_values], np.int8),
+                       "1", "1 where the c satisfies the rule (all three criteria)"),
+        "failures": _var(("chassaignac",), np.array(["; ".join(choice.failures[c]) for c in c_values]), "1",
+                         "the criteria that fail, with the worst check and where"),
+    }
+    coords = {
+        "chassaignac": _var(("chassaignac",), c_values, "Pa", "Chassaignac coefficient c"),
+        "level": _var(("level",), np.array(levels), "1", "mesh level (the last is the reference)"),
+        "table2_level": _var(("table2_level",), np.array(spec["levels"]), "1",
+                             "mesh level compared with the reference"),
+        "point": _var(("point",), np.array(labels), "1", "point label (truth or box corner)"),
+        "posture": first["posture"].variable, "quantity": first["quantity"].variable,
+        "quantity_units": first["quantity_units"].variable, "parameter": first["parameter"].variable,
+        "parameter_units": first["parameter_units"].variable,
+        "criterion": _var(("criterion",), np.array(criteria), "1",
+                          "criterion of the rule: (a) min_det_F, (b) measurement_difference, (c) nonlinearity"),
+    }
+    data.update(_identification_variables(spec))
+    ds = xr.Dataset(data, coords=coords)
+    truth_parameters = {**spec["constants"], **spec["truth"]}
+    chosen = np.nan if choice.chassaignac is None else choice.chassaignac
+    ds.attrs = provenance("scene", truth_parameters, config_hash, scene=name, scene_kind="calibration",
+                          title=f"calibration of the Chassaignac coefficient, scene {name}",
+                          chosen_chassaignac=chosen, choice=choice.describe(), rule=rule_text(spec),
+                          reference=spec["reference"], compare_level=spec["compare_level"],
+                          probe_level=spec["probe_level"], jacobian_level=spec["jacobian_level"],
+                          det_F_posture=spec["det_F_posture"], probe_epsilon=float(spec["epsilon"]),
+                          min_det_F=float(spec["criteria"]["min_det_F"]),
+                          max_measurement_difference=float(spec["criteria"]["max_difference"]),
+                          linear_threshold=float(spec["criteria"]["linear_threshold"]),
+                          box=json.dumps({"parameters": spec["box_parameters"], "factors": spec["box_factors"]}),
+                          identification_offset=float(spec["offset"]))
+    return ds
+
+
+def _parameters(constants, point):
+    """The point's Parameters, or None if they are inadmissible (H ≥ R: no cap)."""
+    try:
+        return Parameters(**{**constants, **point})
+    except ParameterError:
+        return None
+
+
+def _identification_variables(spec) -> dict:
+    """``(chassaignac, identify_mesh, start)`` results of the cross-mesh identifications (none: no variables)."""
+    meshes, starts = spec["identify_meshes"], int(spec["starts"])
+    if not meshes:
+        return {}
+    shape = (len(spec["cases"]), len(meshes), starts)
+    error, success, iterations, wall, cost = (np.full(shape, np.nan) for _ in range(5))
+    paths = np.full(shape, "", dtype=object)
+    for i, case in enumerate(spec["cases"]):
+        for run in case["runs"]:
+            index = (i, meshes.index(run["mesh"]), run["start"])
+            ds = open_dataset(run["identification"])
+            error[index] = float(np.mean(np.abs(ds["relative_error"].values)))
+            success[index] = int(ds.attrs["success"])
+            iterations[index] = int(ds.attrs.get("iterations", ds.sizes["iteration"] - 1))
+            wall[index] = float(ds["wall_time"].values[-1])
+            cost[index] = float(ds["cost"].values[-1])
+            paths[index] = run["identification"]
+    dims = ("chassaignac", "identify_mesh", "start")
+    return {
+        "identify_mesh": _var(("identify_mesh",), np.array(meshes), "1", "mesh level identified on"),
+        "start": _var(("start",), np.arange(starts), "1", "initial guess (random, within ±offset of the truth)"),
+        "identification_error": _var(dims, error, "1", "mean over the six parameters of |estimate/truth − 1|"),
+        "identification_success": _var(dims, success, "1", "1 if the identification converged"),
+        "identification_iterations": _var(dims, iterations, "1", "accepted iterations of the identification"),
+        "identification_wall_time": _var(dims, wall, "s", "identification wall time"),
+        "identification_cost": _var(dims, cost, "1", "final cost E"),
+        "identification": _var(dims, paths.astype(str), "1", "identification dataset"),
+    }
+
+
+def criteria_table(c_values, levels, labels, admissible, standing, difference, nonlinearity, spec) -> pd.DataFrame:
+    """The rule's table of checks (:func:`~breastcore.chassaignac_rule.choose_chassaignac`) from the study's arrays.
+
+    Parameters
+    ----------
+    c_values : (n_c,) array
+    levels : list of str
+        Every level, the reference last.
+    labels : list of str
+        The points; only the ``admissible`` ones are checked.
+    admissible : (n_point,) bool array
+    standing : (n_c, n_level, n_point) array
+        Standing min det F (NaN unless converged).
+    difference : (n_c, n_point) array
+        Largest relative difference of the measurements between the compare level
+        and the reference.
+    nonlinearity : (n_c, 6) array
+        Uniqueness probe per parameter.
+    spec : dict
+        The scene spec (names of the posture, compare and probe levels).
+    """
+    rows = []
+    for i, c in enumerate(c_values):
+        for p, label in enumerate(labels):
+            if not admissible[p]:
+                continue
+            for k, level in enumerate(levels):
+                rows.append((c, "min_det_F", f"{spec['det_F_posture']} on {level} at {label}", standing[i, k, p]))
+            rows.append((c, "measurement_difference", f"{spec['compare_level']} against {spec['reference']} at "
+                                                      f"{label}", difference[i, p]))
+        for j, name in enumerate(IDENTIFIED):
+            rows.append((c, "nonlinearity", f"{name} on {spec['probe_level']} at the truth", nonlinearity[i, j]))
+    return pd.DataFrame(rows, columns=["chassaignac", "criterion", "where", "value"])
+
+
+def rule_text(spec) -> str:
+    """The rule in words, with the scene's bounds and levels."""
+    crit = spec["criteria"]
+    box = " × ".join(SHORT[p] for p in spec["box_parameters"])
+    factors = ", ".join(f"{f:g}" for f in spec["box_factors"])
+    return (f"the smallest c of the grid such that, at the truth and at every admissible corner of the box "
+            f"{box} × {{{factors}}}: (a) min det F in {spec['det_F_posture']} is ≥ {crit['min_det_F']:g} on every "
+            f"level up to {spec['reference']}; (b) max_i |M_i({spec['compare_level']})/M_i({spec['reference']}) − 1| "
+            f"≤ {crit['max_difference']:g}; and (c) at the truth on {spec['probe_level']}, the uniqueness probe "
+            f"(cold solves at Λ (1 ± {spec['epsilon']:g} e_j)) is linear, nonlinearity ≤ "
+            f"{crit['linear_threshold']:g}, for all six parameters")
+
+
+# -- report ---------------------------------------------------------------------------
+def residual_figure(summary, path):
+    """The Table-2 residual against level, one line per c, the paper's beside (log scale)."""
+    from .plots import _save, plt
+
+    levels = [str(v) for v in summary["table2_level"].values]
+    x = np.arange(len(levels))
+    fig, ax = plt.subplots(figsize=(7, 4.5))
+    for i, c in enumerate(summary["chassaignac"].values):
+        y = summary["table2_residual"].values[i]
+        ax.semilogy(x, np.where(y > 0, y, np.nan), "o-", color=plt.cm.viridis(i / max(len(summary["chassaignac"]) - 1,
+                                                                                      1)), label=f"c = {c:g} Pa")
+    theirs = summary["paper_table2_residual"].values
+    ax.semilogy(x, theirs, "ks--", label="paper (its c not given)")
+    ax.set_xticks(x, [f"{lv}\n({LEVEL_NODE_COUNTS.get(lv, '?')})" for lv in levels], fontsize=8)
+    ax.set_ylabel(f"mean (M/M_{summary.attrs.get('reference', 'reference')} − 1)² at the truth")
+    ax.set_xlabel("mesh level (the paper's node count)")
+    chosen = float(summary.attrs.get("chosen_chassaignac", np.nan))
+    ax.set_title("Table-2 residual per level" + (f"; chosen c = {chosen:g} Pa" if np.isfinite(chosen) else
+                                                  "; no c of the grid satisfies the rule"))
+    ax.grid(True, which="both", alpha=0.3)
+    ax.legend(fontsize=7, ncol=2)
+    _save(fig, path)
+
+
+def _markdown(table, floatfmt=".3g"):
+    return table.astype(object).where(table.notna(), None).to_markdown(index=False, missingval="", floatfmt=floatfmt)
+
+
+def _worst(values, labels, lowest):
+    """``"value (where)"`` of the smallest (``lowest``) or largest finite value; a NaN anywhere is named first."""
+    values = np.asarray(values, float)
+    if values.size == 0:
+        return ""
+    if not np.all(np.isfinite(values)):
+        return f"NaN ({labels[int(np.flatnonzero(~np.isfinite(values))[0])]})"
+    i = int(np.argmin(values) if lowest else np.argmax(values))
+    return f"{values[i]:.3g} ({labels[i]})"
+
+
+def calibration_table(ds) -> pd.DataFrame:
+    """One row per c: margins, the worst check of each criterion and where, the Jacobian, identification errors."""
+    admissible = ds["admissible"].values.astype(bool)
+    labels = [str(v) for v in ds["point"].values]
+    levels = [str(v) for v in ds["level"].values]
+    pairs = [f"{lv}, {labels[p]}" for lv in levels for p in range(len(labels)) if admissible[p]]
+    corners = [p for p in range(len(labels)) if admissible[p]]
+    rows = []
+    for i, c in enumerate(ds["chassaignac"].values):
+        margin = ds["sliding_margin"].values[i]
+        standing = ds["standing_min_det_F"].values[i][:, admissible].reshape(-1)
+        singular = ds["singular_value"].values[i]
+        row = {"c (Pa)": f"{c:g}", "margin at truth": margin[0],
+               "min margin": np.nanmin(margin[admissible]),
+               "min standing det F (level, point)": _worst(standing, pairs, lowest=True),
+               "max difference (point)": _worst(ds["measurement_difference"].values[i][corners],
+                                                [labels[p] for p in corners], lowest=False),
+               "max nonlinearity (parameter)": _worst(ds["nonlinearity"].values[i],
+                                                      [str(v) for v in ds["parameter"].values], lowest=False),
+               "σ_min": singular[-1], "σ_max/σ_min": singular[0] / singular[-1]}
+        if "identification_error" in ds:
+            for k, mesh in enumerate(ds["identify_mesh"].values):
+                row[f"id. error % {mesh}"] = 100 * np.nanmean(ds["identification_error"].values[i, k])
+        for k, criterion in enumerate(ds["criterion"].values):
+            row[CRITERIA[str(criterion)][0]] = "pass" if ds["criterion_passed"].values[i, k] else "fail"
+        rows.append(row)
+    return pd.DataFrame(rows)
+
+
+def residual_table(ds) -> pd.DataFrame:
+    """The Table-2 residual: one row per level, one column per c, the paper's last."""
+    table = pd.DataFrame({"level": [str(v) for v in ds["table2_level"].values],
+                          "nodes (paper)": [LEVEL_NODE_COUNTS.get(str(v), np.nan) for v in ds["table2_level"].values]})
+    for i, c in enumerate(ds["chassaignac"].values):
+        table[f"c = {c:g} Pa"] = ds["table2_residual"].values[i]
+    table["paper"] = ds["paper_table2_residual"].values
+    return table
+
+
+def calibration_section(name, ds) -> str:
+    """The results-page section of a calibration scene summary."""
+    a = ds.attrs
+    chosen = float(a.get("chosen_chassaignac", np.nan))
+    left_out = int((ds["admissible"].values == 0).sum())
+    corners = ds.sizes["point"] - 1
+    lines = [f"### Scene `{name}`: calibration of the Chassaignac coefficient c", "",
+             f"**Rule**: {a['rule']}.", "",
+             (f"**Chosen: c = {chosen:g} Pa.**" if np.isfinite(chosen) else
+              "**No c of the grid satisfies the rule**: no default is chosen from this study."), ""]
+    if left_out:
+        lines += [f"{left_out} of the {corners} box corners have H ≥ R, which is no cap (and which identification, "
+                  "working in logit(H/R), never reaches): they are left out of the rule.", ""]
+    lines += [f"Table-2 residual, mean over the measurements of (M_level/M_{a['reference']} − 1)² at the truth, per c "
+              f"(figure: `results/scenes/{name}/{FIGURE}`); the paper's beside (it gives no c):", "",
+              _markdown(residual_table(ds)), "",
+              f"Per c: the sliding margin c/(ρ g V/|Γ_B|) at the truth and its minimum over the admissible corners; "
+              f"the worst check of each criterion and where ((a) min det F in {a['det_F_posture']} over every level "
+              f"and point; (b) max |M_{a['compare_level']}/M_{a['reference']} − 1| over the points; (c) the "
+              f"nonlinearity of the probe on {a['probe_level']}); the singular values of the relative Jacobian on "
+              f"{a['jacobian_level']}; the mean parameter error (%) of the cross-mesh identifications "
+              f"({float(a.get('identification_offset', np.nan)):.0%} off, truth on the reference level meshed by "
+              "gmsh at the true R, H); and each criterion's verdict.", "",
+              _markdown(calibration_table(ds)), ""]
+    failures = [(c, text) for c, text in zip(ds["chassaignac"].values, ds["failures"].values) if str(text)]
+    if failures:
+        lines += ["What fails, per c:", ""] + [f"- c = {c:g} Pa: {text}" for c, text in failures] + [""]
+    return "\n".join(lines)
