@@ -11,6 +11,7 @@ from .mesh import refold
 from .parameters import IDENTIFIED, PARAMETER_INFO
 from .solution import DIAGNOSTICS
 from .uncertainty import DETERMINED_FACTOR, Z95, conditioning, determined, interval_decades, intervals, log_covariance
+from .sliding import REGIME_MARGIN, regime_warning, sliding_margin
 from .verdict import fit_verdict
 
 _PARAM_UNITS = " ".join(PARAMETER_INFO[p].units for p in IDENTIFIED)
@@ -59,6 +60,9 @@ def identification_dataset(result, mm, target, problem, *, initial, truth=None, 
         "determined": _var(("parameter",), determined(cov_log).astype(np.int8), "1",
                            f"1 if the 95 % interval spans at most a factor {DETERMINED_FACTOR:g}; 0: not determined "
                            "by these measurements"),
+        "sliding_margin": _var((), sliding_margin(mm.params(estimate)), "1",
+                               f"c / (ρ g V/|Γ_B|) at the estimate; below {REGIME_MARGIN:g} the standing breast "
+                               "slides (outside the mesh-converged regime)"),
         "standardised_residual": _var(("posture", "quantity"), np.asarray(result.measurement_error[-1]) / options.noise,
                                       "1", "(M(Λ̂)/M̄ − 1) / σ at the estimate, σ the noise model's relative 1σ"),
         "singular_values": _var(("singular",), singular, "1", "singular values of the weighted relative Jacobian"),
@@ -104,6 +108,7 @@ def identification_dataset(result, mm, target, problem, *, initial, truth=None, 
                           iterations=result.iterations, verdict=verdict.verdict, verdict_message=verdict.message,
                           fit_statistic=verdict.statistic, fit_threshold=verdict.threshold, fit_dof=verdict.dof,
                           worst_measurements=[name for name, _ in verdict.worst], input_notes=list(target.notes),
+                          regime_warning=regime_warning(mm.params(estimate)),
                           model_mesh={"R": mm.model.mesh.R, "H": mm.model.mesh.H},
                           title="breastcore parameter identification", **problem.attrs())
     return ds

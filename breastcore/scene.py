@@ -152,7 +152,10 @@ def solution_summary(path, name, kind, config_hash=None) -> xr.Dataset:
         for key in ("estimate", "interval_low", "interval_high", "interval_decades", "determined", "cost",
                     "standardised_residual"):
             data[key] = ds[key].variable
-        verdict = {k: ds.attrs[k] for k in ("verdict", "verdict_message", "worst_measurements", "input_notes")}
+        verdict = {k: ds.attrs[k] for k in ("verdict", "verdict_message", "worst_measurements", "input_notes",
+                                            "regime_warning")}
+    if "sliding_margin" in ds:
+        data["sliding_margin"] = ds["sliding_margin"].variable
     out = xr.Dataset(data, coords={k: ds[k].variable for k in ("posture", "xyz") if k in ds.coords}
                      | ({"parameter": ds["parameter"].variable} if kind == "patient" else {})
                      | ({"iteration": ds["iteration"].variable} if kind == "patient" else {}))
@@ -188,6 +191,7 @@ def parameter_table(identification: xr.Dataset) -> pd.DataFrame:
         "interval_decades": identification["interval_decades"].values,
         "determined": np.where(determined, "yes", "no: not determined by these measurements"),
         "fit_verdict": identification.attrs["verdict"],
+        "regime_warning": identification.attrs.get("regime_warning") or "none",
         "input_notes": notes,
     })
 

@@ -13,6 +13,11 @@ import math
 
 from .geometry import base_radius, cap_volume
 
+#: A margin below this is outside the model's mesh-converged regime: the back cannot hold the
+#: standing breast by friction alone, which slides and crushes against the fold
+#: (spec §2; docs/calibration in README, "The Chassaignac coefficient").
+REGIME_MARGIN = 1.0
+
 
 def slip_threshold(params) -> float:
     r"""The stress ``ρ g V / |Γ_B|`` at which the back plane can hold the breast's weight, Pa.
@@ -88,3 +93,13 @@ def sliding_margin(params) -> float:
     if threshold == 0.0:
         return math.inf if c > 0 else math.nan
     return c / threshold
+
+
+def regime_warning(params) -> str:
+    """A one-line warning when :func:`sliding_margin` is below :data:`REGIME_MARGIN`, else ``""``."""
+    margin = sliding_margin(params)
+    if not margin < REGIME_MARGIN:
+        return ""
+    return (f"sliding margin c/(ρ g V/|Γ_B|) = {margin:.3g} < {REGIME_MARGIN:g} (c = {params.chassaignac:g} Pa, "
+            f"threshold {slip_threshold(params):.4g} Pa): the back cannot hold the standing breast, whose shape is "
+            f"outside the model's mesh-converged regime")

@@ -10,6 +10,7 @@ from .forward import ForwardModel, PostureSolution
 from .parameters import Parameters
 from .postures import Posture
 from .problem import ProblemSpec
+from .sliding import REGIME_MARGIN, sliding_margin
 
 #: Per-posture solver diagnostics stored in the dataset: name -> (units, long name).
 DIAGNOSTICS = {
@@ -50,6 +51,9 @@ def solution_dataset(mesh, problem: ProblemSpec, solutions, *, mesh_level="custo
                            "m s-2", "gravitational acceleration a_g in the torso frame")
     data["posture_angle"] = _var(("posture",), np.array([s.posture.angle for s in solutions]), "degree",
                                  "forward-bend angle θ")
+    data["sliding_margin"] = _var((), sliding_margin(params), "1",
+                                  f"c / (ρ g V/|Γ_B|): the Chassaignac coefficient over the stress at which the back "
+                                  f"holds the breast's weight; below {REGIME_MARGIN:g} the standing breast slides")
     data["converged"] = _var(("posture",), np.array([s.converged for s in solutions], np.int8), "1",
                              "1 if the solve met its tolerance")
     for name, (units, long_name) in DIAGNOSTICS.items():

@@ -2,6 +2,7 @@
 
 import math
 
+import numpy as np
 import pytest
 
 from breastcore.parameters import Parameters
@@ -27,3 +28,54 @@ def test_slip_threshold_scales_with_size_density_and_gravity():
     assert sliding_margin(base.replace(gravity_magnitude=0.0)) == math.inf
     with pytest.raises(ValueError, match="H"):
         slip_threshold(type("P", (), {"R": 0.05, "H": 0.06, "density": 1000.0, "gravity_magnitude": 9.81})())
+
+
+def test_the_regime_warning_fires_below_the_bound_and_not_above():
+    from breastcore.sliding import REGIME_MARGIN, regime_warning, sliding_margin, slip_threshold
+    base = Parameters()
+    threshold = slip_threshold(base)
+    below = base.replace(chassaignac=0.99 * REGIME_MARGIN * threshold)
+    above = base.replace(chassaignac=1.01 * REGIME_MARGIN * threshold)
+    assert sliding_margin(below) < REGIME_MARGIN < sliding_margin(above)
+    assert "sliding margin" in regime_warning(below) and "0.99" in regime_warning(below)
+    assert regime_warning(above) == ""
+
+
+def test_solutions_and_estimates_record_their_margin_and_warning(tmp_path):
+    """A patient estimate below the bound warns in its dataset, its log and show; one above does not."""
+    import logging
+    from breastcore.commands.browse import describe
+    from breastcore.datasets import open_dataset
+    from breastcore.identification_dataset import identification_dataset
+    from breastcore.identify import identify
+    from breastcore.mesh import mesh_level
+    from breastcore.observation import MeasurementModel
+    from breastcore.patient import PatientMeasurements
+    from breastcore.problem import ProblemSpec
+    from breastcore.identification_options import IdentificationOptions
+    from breastcore.measure import QUANTITIES
+    from breastcore.postures import paper_postures
+    from breastcore.sliding import sliding_margin
+    from breastcore.stages.identify import log_verdict
+    mesh = mesh_level("coarse")
+    for c, warned in ((100.0, True), (2000.0, False)):
+        problem = ProblemSpec(parameters=Parameters(chassaignac=c), postures=paper_postures(),
+                              measurement_set="paper15", identification=IdentificationOptions(max_iterations=1))
+        mm = MeasurementModel.from_problem(problem, mesh)
+        truth = np.array(problem.parameters.identified())
+        data = mm.measure(mm.solve(truth, cold=True))
+        target = PatientMeasurements(paper_postures(), QUANTITIES, data)
+        result = identify(mm, data, truth, problem.identification)
+        ds = identification_dataset(result, mm, target, problem, initial=truth)
+        assert float(ds["sliding_margin"]) == pytest.approx(sliding_margin(problem.parameters), rel=1e-12)
+        assert bool(ds.attrs["regime_warning"]) == warned
+        assert ("WARNING: sliding margin" in describe(ds)) == warned
+        records = []
+        handler = logging.Handler()
+        handler.emit = records.append
+        logging.getLogger("breastcore").addHandler(handler)
+        try:
+            log_verdict(ds)
+        finally:
+            logging.getLogger("breastcore").removeHandler(handler)
+        assert any("sliding margin" in r.getMessage() for r in records) == warned

@@ -100,6 +100,10 @@ def _worth(ds) -> list:
         if loose:
             lines.append(f"  not determined by these measurements (95 % interval wider than a factor 10): "
                          f"{', '.join(loose)}")
+    if "sliding_margin" in ds and ds["sliding_margin"].ndim == 0:
+        lines.append(f"  sliding margin c/(ρ g V/|Γ_B|): {float(ds['sliding_margin']):.4g}")
+    if a.get("regime_warning"):
+        lines.append(f"  WARNING: {a['regime_warning']}")
     for note in json.loads(a.get("input_notes", "[]") or "[]"):
         lines.append(f"  input note: {note}")
     return lines

@@ -111,6 +111,8 @@ def run(args):
         print(f"{name:>14s} = {value:.6g} {PARAMETER_INFO[name].units}  ({interval})")
     print(f"{'cost':>14s} = {result.cost[-1]:.3e} after {len(result.cost) - 1} iterations; {result.message}")
     print(f"{'fit verdict':>14s} = {ds.attrs['verdict']}: {ds.attrs['verdict_message']}")
+    if ds.attrs["regime_warning"]:
+        print(f"breastcore identify: warning: {ds.attrs['regime_warning']}", file=sys.stderr)
     print(f"wrote {args.out}")
     if ds.attrs["verdict"] != "consistent":    # written, but not an estimate to use as it is
         print(f"breastcore identify: {ds.attrs['verdict_message']} (history saved)", file=sys.stderr)

@@ -43,6 +43,8 @@ def log_verdict(ds):
     level = logging.INFO if ds.attrs["verdict"] == "consistent" else logging.WARNING
     log.log(level, "fit verdict %s: %s; optimiser: %s", ds.attrs["verdict"], ds.attrs["verdict_message"],
             ds.attrs["message"])
+    if ds.attrs.get("regime_warning"):
+        log.warning("estimate: %s", ds.attrs["regime_warning"])
     for note in json.loads(ds.attrs.get("input_notes", "[]")):
         log.warning("patient input: %s", note)
     loose = [str(p) for p, ok in zip(ds["parameter"].values, ds["determined"].values) if not ok]
