@@ -415,7 +415,7 @@ def test_the_readme_names_the_opt_in_commands():
     commands = _readme_opt_in_commands()
     assert ("results_page", "config/paper.yaml") in commands and ("", "config/stability.yaml") in commands
     assert ("results_page", "config/paper.yaml config/evidence.yaml config/error_vs_runtime.yaml "
-                            "config/results.yaml") in commands
+                            "config/calibration.yaml config/results.yaml") in commands
 
 
 @pytest.mark.parametrize("target, files", _readme_opt_in_commands())
