@@ -104,7 +104,7 @@ def plan_calibration(plan, scene) -> dict:
             "det_F_posture": scene["det_F_posture"], "identify_meshes": list(scene["identify_meshes"]),
             "starts": scene["starts"], "offset": scene["offset"], "box_parameters": list(scene["box_parameters"]),
             "box_factors": list(scene["box_factors"]), "epsilon": scene["probe_epsilon"],
-            "criteria": {"min_det_F": scene["min_det_F"], "max_difference": scene["max_measurement_difference"],
+            "criteria": {"min_det_F": scene["min_det_F"], "max_sliding_difference": scene["max_sliding_difference"],
                          "linear_threshold": scene["linear_threshold"]}}
 
 

@@ -93,9 +93,11 @@ def test_the_summary_applies_the_rule_to_its_own_numbers(tiny_study):
         det = ds["standing_min_det_F"].values[i][:, :2]             # every level, the admissible points
         linear = ds["nonlinearity"].values[i]
         expected = {"min_det_F": bool(np.all(det >= 0.01)),
-                    "measurement_difference": bool(np.all(ds["measurement_difference"].values[i][:2] <= 0.01)),
+                    "sliding_difference": bool(np.all(ds["sliding_difference"].values[i][:2] <= 0.01)),
                     "nonlinearity": bool(np.all(linear <= 1e-8))}
         assert dict(zip(criteria, ds["criterion_passed"].values[i].astype(bool))) == expected
+        stiffest = ds["measurement_difference"].values[np.argmax(ds["chassaignac"].values)]
+        np.testing.assert_allclose(ds["sliding_difference"].values[i], ds["measurement_difference"].values[i] - stiffest)
     passed = ds["chassaignac"].values[ds["passed"].values.astype(bool)]
     chosen = float(ds.attrs["chosen_chassaignac"])
     assert (chosen == passed.min()) if passed.size else np.isnan(chosen)
@@ -189,7 +191,7 @@ def test_the_defaults_are_the_issue_s_study():
     assert scene["levels"] == ["coarse", "medium", "medium-thin", "thin", "very-thin", "ultra-thin"]
     assert (scene["reference"], scene["compare_level"], scene["probe_level"], scene["jacobian_level"]) == \
         ("reference", "very-thin", "thin", "medium")
-    assert (scene["min_det_F"], scene["max_measurement_difference"], scene["linear_threshold"]) == (0.01, 0.01, 1e-8)
+    assert (scene["min_det_F"], scene["max_sliding_difference"], scene["linear_threshold"]) == (0.01, 0.01, 1e-8)
     assert scene["identification"]["max_iterations"] == 25 and scene["identification"]["cost_rtol"] == 0.01
     assert scene["identification"]["method"] == "lm" and scene["identify_meshes"] == ["medium", "very-thin"]
     assert scene["truth"]["R"] == 0.0562 and scene["box_factors"] == [0.7, 1.3]
@@ -244,7 +246,7 @@ def test_the_rule_s_bounds_are_not_in_any_job_spec():
     from breastcore.workflow_plan import Plan
     config = _merged("config/calibration.yaml")
     changed = copy.deepcopy(config)
-    changed["scenes"]["calibration"].update(min_det_F=0.001, max_measurement_difference=0.02, linear_threshold=1e-6)
+    changed["scenes"]["calibration"].update(min_det_F=0.001, max_sliding_difference=0.02, linear_threshold=1e-6)
     before, after = Plan(config), Plan(changed)
     for stage in ("calibrate", "uniqueness", "solve", "measure", "identify", "mesh"):
         assert before.jobs[stage].keys() == after.jobs[stage].keys(), stage
