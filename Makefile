@@ -19,7 +19,7 @@ run: $(BIN)/.installed          ## run the default scenes of config.yaml
 	$(BIN)/python -m breastcore.workflow_run --cores $(CORES) $(ARGS)
 
 test: $(BIN)/.installed         ## the unit suite (< 10 min on 2 cores)
-	$(BIN)/pytest -n $(CORES) -q
+	$(BIN)/pytest -n $(CORES) --dist loadgroup -q
 
 test-slow: $(BIN)/.installed    ## long studies kept out of the unit suite
 	$(BIN)/pytest -q -m slow

@@ -17,7 +17,8 @@ SNAKEMAKE = str(Path(sys.executable).parent / "snakemake")
 
 
 def shrink(config):
-    """The config's scenes at a tiny size: coarse (and medium) meshes, one start, few iterations."""
+    """The config's scenes at a tiny size: coarse (and medium) meshes, one start, few iterations
+    (one for the CG baseline), one extreme-guess factor."""
     tiny = copy.deepcopy(config)
     for scene in tiny["scenes"].values():
         if scene["kind"] == "synthetic":
@@ -25,13 +26,17 @@ def shrink(config):
             scene["truth_mesh"] = "medium" if scene.get("truth_mesh") in ("reference", "fine10k") else "coarse"
             scene["offsets"] = scene["offsets"][:1]
             scene["starts"] = 1
-            scene.setdefault("identification", {})["max_iterations"] = 3
+            scene.setdefault("identification", {})["max_iterations"] = 2
             for method in scene.get("methods", []):
-                method["max_iterations"] = min(method.get("max_iterations", 3), 3)
+                # the paper's CG baseline costs ~10 s an iteration even on coarse
+                cap = 1 if method.get("solver") == "cg" else 2
+                method["max_iterations"] = min(method.get("max_iterations", cap), cap)
                 if "meshes" in method:
                     method["meshes"] = ["coarse"]
         elif scene["kind"] == "stability":
             scene["meshes"], scene["sample"], scene["chunks"] = ["coarse"], 2, 1
+            scene["extreme_guesses"] = [4.0]
+            scene.setdefault("identification", {})["max_iterations"] = 8
             scene.pop("identification_starts", None)
     return tiny
 
