@@ -11,6 +11,7 @@ from breastcore.datasets import mesh_dataset, open_dataset, write_netcdf
 from breastcore.forward import SolverOptions
 from breastcore.identification_options import IdentificationOptions
 from breastcore.mesh import LEVEL_MESH_SIZE, mesh_level
+from breastcore.observation import MeasurementModel
 from breastcore.parameters import IDENTIFIED, Parameters
 from breastcore.postures import Posture
 from breastcore.problem import ProblemSpec, ProblemSpecError
@@ -76,6 +77,16 @@ def test_a_dataset_without_a_spec_names_its_stage():
     import xarray as xr
     with pytest.raises(ProblemSpecError, match="stage 'identify'"):
         ProblemSpec.from_dataset(xr.Dataset(attrs={"stage": "identify"}))
+
+
+def test_a_spec_without_identification_options_has_no_warm_radius_not_the_default_one():
+    """Only identification options define the warm-start radius: no fallback to IdentificationOptions()."""
+    assert non_default_spec().warm_radius() == 0.07
+    bare = non_default_spec().replace(identification=None)
+    with pytest.raises(ProblemSpecError, match="no identification options"):
+        bare.warm_radius()
+    with pytest.raises(ProblemSpecError, match="warm_radius"):
+        MeasurementModel.from_problem(bare, mesh_level("coarse"))
 
 
 @pytest.fixture(scope="module")
