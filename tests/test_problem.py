@@ -177,9 +177,11 @@ def test_later_stages_record_their_spec(stages, stage):
         assert recorded.identification == IdentificationOptions(**{**IDENTIFICATION, "max_iterations": 1})
 
 
-def test_finite_sensitivity_re_identifies_with_exactly_the_identification_problem(stages, monkeypatch, tmp_path):
+@pytest.mark.parametrize("via", ["stage", "cli"])
+def test_finite_sensitivity_re_identifies_with_exactly_the_identification_problem(stages, monkeypatch, tmp_path, via):
     """Identified with c = 300 Pa, δ = 1e-5 m, rtol = 1e-7 and warm radius 0.07, every
-    re-identification must run with those (it ran with 100, 1e-6, 1e-8 and 0.05)."""
+    re-identification must run with those (it ran with 100, 1e-6, 1e-8 and 0.05), whether
+    from the workflow stage or from ``breastcore sensitivity``."""
     spec, paths = stages
     seen = []
 
@@ -189,7 +191,12 @@ def test_finite_sensitivity_re_identifies_with_exactly_the_identification_proble
         raise RuntimeError("recorded; not run")               # a failure is recorded, never fatal
 
     monkeypatch.setattr(sensitivity_module, "identify", spy)
-    run_sensitivity({"finite": True, "delta": 0.1}, paths["identify"], tmp_path / "s.nc")
+    if via == "stage":
+        run_sensitivity({"finite": True, "delta": 0.1}, paths["identify"], tmp_path / "s.nc")
+    else:
+        from breastcore import cli
+        assert cli.main(["sensitivity", str(paths["identify"]), "--delta", "0.1", "--out",
+                         str(tmp_path / "s.nc")]) == 0
     recorded = ProblemSpec.from_dataset(open_dataset(paths["identify"]))
     assert len(seen) == 2 * 15
     for base, solver, radius, measurement_set, postures, options, nodes in seen:
