@@ -13,7 +13,7 @@ from breastcore.identification_options import IdentificationOptions
 from breastcore.mesh import LEVEL_MESH_SIZE, mesh_level
 from breastcore.observation import MeasurementModel
 from breastcore.parameters import IDENTIFIED, Parameters
-from breastcore.postures import Posture
+from breastcore.postures import Posture, paper_postures
 from breastcore.problem import ProblemSpec, ProblemSpecError
 from breastcore.solution import equilibrium_residual
 from breastcore.stages.extreme import run_extreme_guesses
@@ -173,8 +173,11 @@ def test_later_stages_record_their_spec(stages, stage):
         assert recorded == ProblemSpec(parameters=Parameters(**CONSTANTS), solver=SolverOptions(**SOLVER),
                                        postures=(Posture("fours", 90.0),))
     else:
-        assert recorded.parameters == Parameters(**CONSTANTS) and recorded.solver == SolverOptions(**SOLVER)
-        assert recorded.identification == IdentificationOptions(**{**IDENTIFICATION, "max_iterations": 1})
+        # documented: the truth Λ̄ of the constants, the paper's postures and measurement set
+        assert recorded == spec.replace(parameters=Parameters(**CONSTANTS), postures=paper_postures(),
+                                        measurement_set="paper15",
+                                        identification=IdentificationOptions(**{**IDENTIFICATION,
+                                                                                 "max_iterations": 1}))
 
 
 @pytest.mark.parametrize("via", ["stage", "cli"])
