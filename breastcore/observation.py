@@ -69,15 +69,18 @@ class MeasurementModel:
 
         Constants, solver options, postures, measurement set and warm-start radius all
         come from ``problem``; ``processes`` only changes how the postures are run.
+        ``problem`` must have identification options, whose warm-start radius this uses
+        (:class:`~breastcore.problem.ProblemSpecError` otherwise: no default radius).
         """
         if problem.measurement_set is None:
             raise ValueError("this problem has no measurement set: it defines no M(Λ)")
+        warm_radius = problem.warm_radius()
         if model is None:
             model = problem.forward_model(mesh)
         elif model.options != problem.solver:
             raise ValueError("the forward model's solver options are not the problem's")
         return cls(model, problem.parameters, problem.postures, problem.measurement_set,
-                   warm_radius=problem.warm_radius(), processes=processes)
+                   warm_radius=warm_radius, processes=processes)
 
     def params(self, values) -> Parameters:
         return self.base.with_identified(values)

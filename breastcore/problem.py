@@ -63,14 +63,22 @@ class ProblemSpec:
         return ForwardModel(mesh, self.solver)
 
     def warm_radius(self) -> float:
-        """The warm-start radius of the identification options (the default without options)."""
-        return (self.identification or IdentificationOptions()).warm_radius
+        """The warm-start radius of the identification options.
+
+        Raises ProblemSpecError for a spec without identification options (a solve, a
+        measurement, a calibration): it defines no radius, and none is made up.
+        """
+        if self.identification is None:
+            raise ProblemSpecError("this problem spec has no identification options, hence no warm-start radius "
+                                   "(warm_radius): only an identification problem defines one")
+        return self.identification.warm_radius
 
     def check_model(self, mm) -> None:
         """Raise ProblemSpecError unless the measurement model ``mm`` is the one this spec builds.
 
         A dataset that records this spec must have been computed with it: constants,
-        solver options, postures, measurement set and warm-start radius.
+        solver options, postures, measurement set and warm-start radius. The spec must
+        have identification options (the radius is theirs; ProblemSpecError otherwise).
         """
         radius = self.warm_radius()
         found = {"parameters": mm.base, "solver": mm.model.options, "postures": tuple(mm.postures),

@@ -107,7 +107,7 @@ PARAMETER_RANGES = {"R": POSITIVE, "H": POSITIVE, "lambda_breast": NON_NEGATIVE,
 _PARAMETER_OPTIONS = {PARAMETER_INFO[name].cli: kind for name, kind in PARAMETER_RANGES.items()}
 RANGES = {
     "solve": {"--rtol": UNIT_OPEN, "--mesh-size": POSITIVE, **_PARAMETER_OPTIONS},
-    "identify": {"--mesh-size": POSITIVE, "--fd-step": UNIT_OPEN, "--cost-tol": NON_NEGATIVE,
+    "identify": {"--mesh-size": POSITIVE, "--rtol": UNIT_OPEN, "--fd-step": UNIT_OPEN, "--cost-tol": NON_NEGATIVE,
                  "--cost-rtol": UNIT_HALF_OPEN, "--max-iterations": COUNT, "--noise": POSITIVE,
                  "--initial-trust-radius": POSITIVE, "--warm-radius": NON_NEGATIVE, "--processes": COUNT,
                  **_PARAMETER_OPTIONS},
@@ -232,6 +232,22 @@ def test_valid_numbers_reach_run(command, files, tmp_path, capsys, no_work):
     extra = [f"{o}={good[kind]}" for o, kind in RANGES[command].items()]
     assert main(argv(command, files, tmp_path, *extra)) == 1
     assert "run() reached" in capsys.readouterr().err
+
+
+def test_identify_rtol_reaches_the_problem_spec_and_its_forward_model(files, tmp_path, monkeypatch, capsys):
+    """``identify --rtol`` sets the forward solver's tolerance, as ``solve --rtol`` does: not the default 1e-8."""
+    import breastcore.identify
+    from breastcore.cli import main
+    seen = []
+
+    def spy(mm, target, initial, options, weights=None):
+        seen.append(mm.model.options)
+        raise RuntimeError("recorded; not run")
+
+    monkeypatch.setattr(breastcore.identify, "identify", spy)
+    assert main(argv("identify", files, tmp_path, "--mesh", "coarse", "--rtol", "3e-7", "--solver", "cg")) == 1
+    assert "recorded; not run" in capsys.readouterr().err
+    assert [(o.rtol, o.method) for o in seen] == [(3e-7, "cg")]
 
 
 @pytest.mark.parametrize("text, named", [

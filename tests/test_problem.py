@@ -11,16 +11,19 @@ from breastcore.datasets import mesh_dataset, open_dataset, write_netcdf
 from breastcore.forward import SolverOptions
 from breastcore.identification_options import IdentificationOptions
 from breastcore.mesh import LEVEL_MESH_SIZE, mesh_level
+from breastcore.observation import MeasurementModel
 from breastcore.parameters import IDENTIFIED, Parameters
-from breastcore.postures import Posture
+from breastcore.postures import Posture, paper_postures
 from breastcore.problem import ProblemSpec, ProblemSpecError
 from breastcore.solution import equilibrium_residual
+from breastcore.stages.calibrate import run_calibrate
 from breastcore.stages.extreme import run_extreme_guesses
 from breastcore.stages.identify import run_identify
 from breastcore.stages.measure import run_measure
 from breastcore.stages.sensitivity import run_sensitivity
 from breastcore.stages.solve import run_solve
 from breastcore.stages.stability import run_stability
+from breastcore.stages.uniqueness import run_uniqueness
 from breastcore.study import model_mesh_from_identification, problem_from_identification
 
 #: Non-default constants, solver options and identification options: none may be replaced by a default.
@@ -78,6 +81,16 @@ def test_a_dataset_without_a_spec_names_its_stage():
         ProblemSpec.from_dataset(xr.Dataset(attrs={"stage": "identify"}))
 
 
+def test_a_spec_without_identification_options_has_no_warm_radius_not_the_default_one():
+    """Only identification options define the warm-start radius: no fallback to IdentificationOptions()."""
+    assert non_default_spec().warm_radius() == 0.07
+    bare = non_default_spec().replace(identification=None)
+    with pytest.raises(ProblemSpecError, match="no identification options"):
+        bare.warm_radius()
+    with pytest.raises(ProblemSpecError, match="warm_radius"):
+        MeasurementModel.from_problem(bare, mesh_level("coarse"))
+
+
 @pytest.fixture(scope="module")
 def stages(tmp_path_factory):
     """Every stage run once on coarse with the non-default spec: ``{stage: dataset path}``."""
@@ -88,7 +101,8 @@ def stages(tmp_path_factory):
     truth = {k: getattr(Parameters(), k) for k in IDENTIFIED}
     paths = {"solve": folder / "solve.nc", "measure": folder / "measure.nc", "identify": folder / "identify.nc",
              "sensitivity": folder / "sensitivity.nc", "stability": folder / "stability.nc",
-             "extreme": folder / "extreme.nc"}
+             "extreme": folder / "extreme.nc", "calibrate": folder / "calibrate.nc",
+             "uniqueness": folder / "uniqueness.nc"}
     run_solve({"parameters": {**CONSTANTS, **truth}, "postures": POSTURES, "solver": SOLVER}, mesh_path,
               paths["solve"])
     run_measure({"measurement_set": "exact", "noise": 0.0, "seed": 0}, paths["solve"], paths["measure"])
@@ -101,6 +115,11 @@ def stages(tmp_path_factory):
                               "delta": 1e-5, "posture": "fours"}]}, mesh_path, paths["stability"])
     run_extreme_guesses({"level": "coarse", "factors": [4.0], "constants": CONSTANTS, "solver": SOLVER,
                          "identification": {**IDENTIFICATION, "max_iterations": 1}}, mesh_path, paths["extreme"])
+    point = {k: getattr(spec.parameters, k) for k in IDENTIFIED}          # R, H and μ not at their defaults
+    calibration = {"constants": CONSTANTS, "solver": SOLVER, "postures": POSTURES[1:2], "measurement_set": "exact"}
+    run_calibrate({**calibration, "level": "coarse", "points": [{"label": "truth", "parameters": point}]},
+                  mesh_path, paths["calibrate"])
+    run_uniqueness({**calibration, "truth": point, "epsilon": 1e-5}, mesh_path, paths["uniqueness"])
     return spec, paths
 
 
@@ -152,23 +171,35 @@ def test_the_rebuilt_mesh_is_the_model_mesh_not_the_displayed_one(stages):
     assert (rebuilt.R, rebuilt.H) == (mesh_level("coarse").R, mesh_level("coarse").H)
 
 
-@pytest.mark.parametrize("stage", ["sensitivity", "stability", "extreme"])
+@pytest.mark.parametrize("stage", ["sensitivity", "stability", "extreme", "calibrate", "uniqueness"])
 def test_later_stages_record_their_spec(stages, stage):
     spec, paths = stages
-    recorded = ProblemSpec.from_dataset(open_dataset(paths[stage]))
+    ds = open_dataset(paths[stage])
+    recorded = ProblemSpec.from_dataset(ds)
     if stage == "sensitivity":
         assert recorded == ProblemSpec.from_dataset(open_dataset(paths["identify"]))
     elif stage == "stability":
         assert recorded == ProblemSpec(parameters=Parameters(**CONSTANTS), solver=SolverOptions(**SOLVER),
                                        postures=(Posture("fours", 90.0),))
+    elif stage == "extreme":
+        # documented: the truth Λ̄ of the constants, the paper's postures and measurement set
+        assert recorded == spec.replace(parameters=Parameters(**CONSTANTS), postures=paper_postures(),
+                                        measurement_set="paper15",
+                                        identification=IdentificationOptions(**{**IDENTIFICATION,
+                                                                                 "max_iterations": 1}))
     else:
-        assert recorded.parameters == Parameters(**CONSTANTS) and recorded.solver == SolverOptions(**SOLVER)
-        assert recorded.identification == IdentificationOptions(**{**IDENTIFICATION, "max_iterations": 1})
+        # the constants with the first point's (the truth's) Λ, the job's posture and measurement set; no options
+        assert recorded == spec.replace(postures=(Posture("lean", 30.0),), identification=None)
+        assert ds.attrs["chassaignac"] == 300.0 and ds.attrs["mesh_level"] == "coarse"
+        if stage == "uniqueness":
+            assert ds.attrs["epsilon"] == 1e-5
 
 
-def test_finite_sensitivity_re_identifies_with_exactly_the_identification_problem(stages, monkeypatch, tmp_path):
+@pytest.mark.parametrize("via", ["stage", "cli"])
+def test_finite_sensitivity_re_identifies_with_exactly_the_identification_problem(stages, monkeypatch, tmp_path, via):
     """Identified with c = 300 Pa, δ = 1e-5 m, rtol = 1e-7 and warm radius 0.07, every
-    re-identification must run with those (it ran with 100, 1e-6, 1e-8 and 0.05)."""
+    re-identification must run with those (it ran with 100, 1e-6, 1e-8 and 0.05), whether
+    from the workflow stage or from ``breastcore sensitivity``."""
     spec, paths = stages
     seen = []
 
@@ -178,7 +209,12 @@ def test_finite_sensitivity_re_identifies_with_exactly_the_identification_proble
         raise RuntimeError("recorded; not run")               # a failure is recorded, never fatal
 
     monkeypatch.setattr(sensitivity_module, "identify", spy)
-    run_sensitivity({"finite": True, "delta": 0.1}, paths["identify"], tmp_path / "s.nc")
+    if via == "stage":
+        run_sensitivity({"finite": True, "delta": 0.1}, paths["identify"], tmp_path / "s.nc")
+    else:
+        from breastcore import cli
+        assert cli.main(["sensitivity", str(paths["identify"]), "--delta", "0.1", "--out",
+                         str(tmp_path / "s.nc")]) == 0
     recorded = ProblemSpec.from_dataset(open_dataset(paths["identify"]))
     assert len(seen) == 2 * 15
     for base, solver, radius, measurement_set, postures, options, nodes in seen:

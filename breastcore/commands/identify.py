@@ -40,6 +40,10 @@ def register(sub):
     p.add_argument("--jacobian", choices=["implicit", "fd"], default="implicit",
                    help="implicit (adjoint-free sensitivities, default) or fd (forward differences)")
     p.add_argument("--solver", choices=["newton", "cg"], default="newton", help="forward solver (default newton)")
+    # as solve's --rtol: RTOL >= 1 would accept the undeformed start
+    p.add_argument("--rtol", type=fraction(zero=False), default=1e-8,
+                   help="forward solves stop when ‖free-dof gradient‖ ≤ RTOL × ‖gravity load‖, in (0, 1) "
+                        "(default 1e-8; recorded in the dataset's problem spec, reused by sensitivity)")
     # a step Λ_j(1 + ε) with ε >= 1 at least doubles Λ_j: no longer a derivative
     p.add_argument("--fd-step", type=fraction(zero=False), default=1e-4,
                    help="relative FD step ε, in (0, 1) (default 1e-4)")
@@ -95,7 +99,8 @@ def run(args):
     ds_m = open_dataset(args.measurements)
     target = target_from_dataset(ds_m)
     mesh, level, _ = mesh_from_args(args)
-    problem = ProblemSpec(parameters=base, solver=SolverOptions(method=args.solver), postures=target.postures,
+    problem = ProblemSpec(parameters=base, solver=SolverOptions(method=args.solver, rtol=args.rtol),
+                          postures=target.postures,
                           measurement_set=target.measurement_set, identification=options)
     mm = MeasurementModel.from_problem(problem, mesh, processes=args.processes)
     result = identify(mm, target.values, initial, options, target.weights)
