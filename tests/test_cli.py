@@ -326,6 +326,21 @@ def test_unparsable_patient_file_is_one_line(tmp_path, capsys):
         assert "--patient" in line and name in line and all(w in line for w in words), line
 
 
+def test_an_unusual_patient_value_is_one_warning_line(tmp_path):
+    """Python's own warning line (``patient.py:NNN: MeasurementWarning:`` and a source line) is not
+    printed before the command's: stderr is the one warning, and the dataset is written."""
+    path = tmp_path / "p.yaml"
+    path.write_text("postures:\n"
+                    "  standing: {volume: 601, area: 362, height: 600, frontal_depth: 51, back_depth: 41}\n"
+                    "  fours: {volume: 991, area: 242, height: 112, frontal_depth: 66, back_depth: 66}\n")
+    out = run("measure", "--patient", str(path), "--out", str(tmp_path / "m.nc"))
+    assert out.returncode == 0, out.stderr
+    lines = out.stderr.splitlines()
+    assert len(lines) == 1, out.stderr
+    assert lines[0].startswith("breastcore measure: warning: posture 'standing': height 600 mm"), lines[0]
+    assert (tmp_path / "m.nc").exists()
+
+
 # --- the closing note's table, end to end in a fresh process -------------------------------------
 
 @pytest.mark.parametrize("case", ["solve --rtol 0", "empty .nc", "text .nc", "mesh to identify", "negative volume"])

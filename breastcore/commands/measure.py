@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import sys
+import warnings
 
 from ..cli import UsageError, dataset_file, existing_file, writable_path
 
@@ -28,14 +29,16 @@ def register(sub):
 def run(args):
     from ..datasets import open_dataset, write_netcdf
     from ..measure import MeasurementError
-    from ..patient import load_patient
+    from ..patient import MeasurementWarning, load_patient
     from ..targets import measure_solution, measurement_dataset
 
     if (args.solution is None) == (args.patient is None):
         raise UsageError("give exactly one of SOLUTION.nc or --patient FILE")
     if args.patient is not None:
         try:
-            target = load_patient(args.patient, args.measurement_set, args.allow_implausible)
+            with warnings.catch_warnings():     # Python's own line, with a source line: the notes say it below
+                warnings.simplefilter("ignore", MeasurementWarning)
+                target = load_patient(args.patient, args.measurement_set, args.allow_implausible)
         except MeasurementError as err:
             raise UsageError(f"--patient: {err}") from None
         ds = measurement_dataset(target, "patient")
