@@ -342,14 +342,18 @@ def _patient_posture(key, values, where):
 def _patient_values(scene, where):
     """Refuse values no shape of the model produces (unless allow_implausible), naming rule and values."""
     from .measure import MeasurementError
-    from .patient import patient_from_dict
+    from .patient import ImplausibleMeasurements, patient_from_dict
     try:
         with warnings.catch_warnings():                 # inconsistent values are run, and flagged by the job
             warnings.simplefilter("ignore")
             patient_from_dict({"measurement_set": scene["measurement_set"], "units": scene["units"],
                                "postures": scene["postures"]}, allow_implausible=scene["allow_implausible"])
+    except ImplausibleMeasurements as err:              # it names the Python argument, last: name the key
+        text, allow = str(err), f"{where}.allow_implausible: true"
+        text = text[:-len("allow_implausible")] + allow if text.endswith("allow_implausible") else f"{text} ({allow})"
+        raise ConfigError(f"config key {where}.postures: {text}") from None
     except MeasurementError as err:
-        raise ConfigError(f"config key {where}.postures: {err} (set {where}.allow_implausible: true)") from None
+        raise ConfigError(f"config key {where}.postures: {err}") from None
 
 
 def _cap(values, where):

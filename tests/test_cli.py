@@ -341,6 +341,20 @@ def test_an_unusual_patient_value_is_one_warning_line(tmp_path):
     assert (tmp_path / "m.nc").exists()
 
 
+def test_an_implausible_patient_is_refused_naming_the_option_that_runs_it(tmp_path, capsys):
+    """The command line names its own option, --allow-implausible, not the config key."""
+    from breastcore.cli import main
+    path = tmp_path / "p.yaml"
+    path.write_text("postures:\n"
+                    "  standing: {volume: 601, area: 1, height: 115, frontal_depth: 51, back_depth: 41}\n"
+                    "  fours: {volume: 991, area: 242, height: 112, frontal_depth: 66, back_depth: 66}\n")
+    assert main(["measure", "--patient", str(path), "--out", str(tmp_path / "m.nc")]) == 2
+    line = one_error_line(capsys, "measure")
+    assert "posture 'standing': area 1 cm2" in line and line.endswith("run them flagged with --allow-implausible"), line
+    assert "allow_implausible" not in line, line
+    assert main(["measure", "--patient", str(path), "--allow-implausible", "--out", str(tmp_path / "m.nc")]) == 0
+
+
 # --- the closing note's table, end to end in a fresh process -------------------------------------
 
 @pytest.mark.parametrize("case", ["solve --rtol 0", "empty .nc", "text .nc", "mesh to identify", "negative volume"])

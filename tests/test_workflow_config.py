@@ -94,6 +94,13 @@ def test_patient_with_one_posture_is_refused():
     assert msg.startswith("config key scenes.example_patient.postures:") and "at least two postures" in msg
 
 
+def test_an_implausible_patient_is_refused_naming_the_config_key_that_runs_it():
+    msg = _bad(lambda c: c["scenes"]["example_patient"]["postures"]["standing"].update(area=1))
+    assert msg.startswith("config key scenes.example_patient.postures: posture 'standing': area 1 cm2"), msg
+    assert msg.endswith("run them flagged with scenes.example_patient.allow_implausible: true"), msg
+    assert "--allow-implausible" not in msg
+
+
 def test_non_finite_number():
     msg = _bad(lambda c: c["constants"].update(chassaignac=float("nan")))
     assert "constants.chassaignac" in msg and "finite" in msg
