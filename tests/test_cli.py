@@ -302,6 +302,31 @@ def test_measurement_dataset_with_a_nan_names_the_value(files, tmp_path, capsys,
     assert all(w in line for w in ("--measurements", "bent45", "area", "nan")), line
 
 
+@pytest.mark.parametrize("weighted, words", [
+    ([], ["every weight is 0", "0 measurements cannot determine 6 parameters"]),
+    ([(0, 0), (0, 1), (0, 2), (0, 3), (0, 4)], ["only 5 of 10 measurements have weight > 0",
+                                                "5 measurements cannot determine 6 parameters"])])
+def test_too_few_weighted_measurements_are_refused_while_parsing(weighted, words, files, tmp_path, capsys,
+                                                                  no_work):
+    """All weights 0 reached the identification, which stopped with a bare ValueError and exit 1."""
+    from dataclasses import replace
+
+    import numpy as np
+
+    from breastcore.cli import main
+    from breastcore.datasets import open_dataset, write_netcdf
+    from breastcore.targets import measurement_dataset, target_from_dataset
+    target = target_from_dataset(open_dataset(files["measure"]))          # two postures: 10 measurements
+    weights = np.zeros_like(target.weights)
+    for index in weighted:
+        weights[index] = 1.0
+    path = write_netcdf(measurement_dataset(replace(target, weights=weights), "patient"), tmp_path / "w.nc")
+    assert main(["identify", "--measurements", str(path), "--out", str(tmp_path / "o.nc")]) == 2
+    line = one_error_line(capsys, "identify")
+    assert "--measurements" in line and str(path) in line and all(w in line for w in words), line
+    assert not (tmp_path / "o.nc").exists()
+
+
 @pytest.mark.parametrize("value, words", [
     ("-5", ["standing", "volume", "-5 ml", "> 0"]), ("0", ["standing", "volume", "0 ml"]),
     (".nan", ["standing", "volume", "nan ml"])])
