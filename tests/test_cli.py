@@ -366,6 +366,27 @@ def test_an_unusual_patient_value_is_one_warning_line(tmp_path):
     assert (tmp_path / "m.nc").exists()
 
 
+def test_identify_warns_of_each_input_note_of_its_measurements(tmp_path):
+    """The measurement dataset's input_notes (implausible values run as asked, unusual ones) are on
+    identify's stderr too, as warnings, not only in the datasets."""
+    import json
+
+    from breastcore.datasets import open_dataset
+    path = tmp_path / "p.yaml"
+    path.write_text("postures:\n"
+                    "  standing: {volume: 601, area: 362, height: 600, frontal_depth: 51, back_depth: 41}\n"
+                    "  fours: {volume: 991, area: 242, height: 112, frontal_depth: 66, back_depth: 66}\n")
+    assert run("measure", "--patient", str(path), "--out", str(tmp_path / "m.nc")).returncode == 0
+    notes = json.loads(open_dataset(tmp_path / "m.nc").attrs["input_notes"])
+    assert notes and any("height 600 mm" in note for note in notes), notes
+    out = run("identify", "--measurements", str(tmp_path / "m.nc"), "--mesh", "coarse", "--max-iterations", "1",
+              "--out", str(tmp_path / "id.nc"))
+    assert (tmp_path / "id.nc").exists(), out.stderr
+    lines = out.stderr.splitlines()
+    for note in notes:
+        assert lines.count(f"breastcore identify: warning: {note}") == 1, out.stderr
+
+
 def test_an_implausible_patient_is_refused_naming_the_option_that_runs_it(tmp_path, capsys):
     """The command line names its own option, --allow-implausible, not the config key."""
     from breastcore.cli import main
