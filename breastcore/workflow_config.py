@@ -181,16 +181,16 @@ DEFAULT_SCHEMA = Path(__file__).resolve().parents[1] / "workflow" / "schemas" / 
 
 
 def _redefined(base, merged, overlay):
-    """Key paths of ``base``'s sections (mappings) and scenes that ``overlay`` gives again as mappings."""
+    """Key paths of ``base``'s scenes that ``overlay`` gives again as mappings: such a file is a
+    copy of ``base``. A file that gives a section again (``solver``, ``constants``) is an
+    overlay, e.g. the constants of another regime over ``config.yaml``'s scenes."""
     def both(tree, key):
         return isinstance(tree, dict) and isinstance(tree.get(key), dict)
-    out = [(key,) for key, value in overlay.items()
-           if key != "scenes" and isinstance(value, dict) and both(base, key) and both(merged, key)]
     scenes = overlay.get("scenes")
-    if isinstance(scenes, dict):
-        out += [("scenes", name) for name, scene in scenes.items()
-                if isinstance(scene, dict) and both(base.get("scenes"), name) and both(merged.get("scenes"), name)]
-    return out
+    if not isinstance(scenes, dict):
+        return []
+    return [("scenes", name) for name, scene in scenes.items()
+            if isinstance(scene, dict) and both(base.get("scenes"), name) and both(merged.get("scenes"), name)]
 
 
 def _omitted(base, merged, overlay):
@@ -246,11 +246,11 @@ def check_overlays(base_path, overlay_paths, replace=False, schema_path=None) ->
     copy leaves out (a posture, a measured quantity, a whole scene or section) silently
     keeps ``config.yaml``'s value: the copy runs what it no longer says. A file that adds
     scenes of new names and sets top-level keys (``run_scenes``, ``max_starts``) is an
-    overlay, merged as usual; that is what the opt-in configs of ``config/`` do. A file
-    that gives one of ``config.yaml``'s sections (``solver``, ``constants``, ``report``) or
-    scenes again is a copy: it must give every key of what it redefines, and every
-    top-level key and scene of ``config.yaml``, or drop them with null. A list is replaced
-    whole, so it cannot leave anything behind.
+    overlay, merged as usual; that is what the opt-in configs of ``config/`` do; so is one
+    that gives a section (``solver``, ``constants``, ``report``) again, which must give every
+    key of it. A file that gives one of ``config.yaml``'s scenes again is a copy: it must
+    give every key of that scene, and every top-level key and scene of ``config.yaml``, or
+    drop them with null. A list is replaced whole, so it cannot leave anything behind.
 
     Parameters
     ----------
