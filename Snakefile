@@ -19,11 +19,13 @@ configfile: "config.yaml"
 
 with config_errors_exit():
     check_config_files(workflow.configfiles)
-    # A --configfile copy that leaves out a key of config.yaml would run config.yaml's value.
-    # (Snakemake 8 has no --replace-workflow-config, added by snakemake/snakemake#3381: it always merges)
+    # A --configfile copy that leaves out a key, a scene or a section of config.yaml would run
+    # config.yaml's. (Snakemake 8 has no --replace-workflow-config, added by
+    # snakemake/snakemake#3381: it always merges)
+    SCHEMA = os.path.join(workflow.basedir, "workflow/schemas/config.schema.yaml")
     drop_keys(config, check_overlays("config.yaml", workflow.config_settings.configfiles,
-                                     getattr(workflow.config_settings, "replace_workflow_config", False)))
-    config.update(validate_config(config, os.path.join(workflow.basedir, "workflow/schemas/config.schema.yaml")))
+                                     getattr(workflow.config_settings, "replace_workflow_config", False), SCHEMA))
+    config.update(validate_config(config, SCHEMA))
 
 include: "workflow/rules/common.smk"
 include: "workflow/rules/mesh.smk"

@@ -66,7 +66,8 @@ def calibration_summary(spec, name, config_hash=None) -> xr.Dataset:
       ``c_max`` the grid's largest c: the part of the level gap that the back's sliding adds
       to the meshes' own discretisation error (which ``measurement_difference(c_max, p)`` is);
     - ``sliding_margin(c, p) = c / (ρ g V(p)/|Γ_B(p)|)``;
-    - ``identification_error(c, mesh, start) = mean_j |Λ̂_j/Λ̄_j − 1|``.
+    - ``identification_error(c, mesh, start) = mean_j |Λ̂_j/Λ̄_j − 1|``, with the identification's
+      fit verdict, ``identification_verdict`` (``identification_success`` is the optimiser's exit only).
 
     A value from a solve that did not converge is NaN, and fails the rule.
     """
@@ -206,13 +207,14 @@ def _identification_variables(spec) -> dict:
         return {}
     shape = (len(spec["cases"]), len(meshes), starts)
     error, success, iterations, wall, cost = (np.full(shape, np.nan) for _ in range(5))
-    paths = np.full(shape, "", dtype=object)
+    paths, verdicts = np.full(shape, "", dtype=object), np.full(shape, "", dtype=object)
     for i, case in enumerate(spec["cases"]):
         for run in case["runs"]:
             index = (i, meshes.index(run["mesh"]), run["start"])
             ds = open_dataset(run["identification"])
             error[index] = float(np.mean(np.abs(ds["relative_error"].values)))
             success[index] = int(ds.attrs["success"])
+            verdicts[index] = ds.attrs["verdict"]
             iterations[index] = int(ds.attrs.get("iterations", ds.sizes["iteration"] - 1))
             wall[index] = float(ds["wall_time"].values[-1])
             cost[index] = float(ds["cost"].values[-1])
@@ -222,7 +224,10 @@ def _identification_variables(spec) -> dict:
         "identify_mesh": _var(("identify_mesh",), np.array(meshes), "1", "mesh level identified on"),
         "start": _var(("start",), np.arange(starts), "1", "initial guess (random, within ±offset of the truth)"),
         "identification_error": _var(dims, error, "1", "mean over the six parameters of |estimate/truth − 1|"),
-        "identification_success": _var(dims, success, "1", "1 if the identification converged"),
+        "identification_success": _var(dims, success, "1", "1 if the optimiser met its stopping test (what the "
+                                       "estimate is worth: identification_verdict)"),
+        "identification_verdict": _var(dims, verdicts.astype(str), "1", "fit verdict of the identification: "
+                                       "consistent, misfit or not_converged (breastcore.verdict)"),
         "identification_iterations": _var(dims, iterations, "1", "accepted iterations of the identification"),
         "identification_wall_time": _var(dims, wall, "s", "identification wall time"),
         "identification_cost": _var(dims, cost, "1", "final cost E"),

@@ -176,15 +176,81 @@ def _merge(config, overlay):
     return config
 
 
-def check_overlays(base_path, overlay_paths, replace=False) -> list:
+#: The workflow's schema, beside the package (the Snakefile passes its own path).
+DEFAULT_SCHEMA = Path(__file__).resolve().parents[1] / "workflow" / "schemas" / "config.schema.yaml"
+
+
+def _redefined(base, merged, overlay):
+    """Key paths of ``base``'s scenes that ``overlay`` gives again as mappings: such a file is a
+    copy of ``base``. A file that gives a section again (``solver``, ``constants``) is an
+    overlay, e.g. the constants of another regime over ``config.yaml``'s scenes."""
+    def both(tree, key):
+        return isinstance(tree, dict) and isinstance(tree.get(key), dict)
+    scenes = overlay.get("scenes")
+    if not isinstance(scenes, dict):
+        return []
+    return [("scenes", name) for name, scene in scenes.items()
+            if isinstance(scene, dict) and both(base.get("scenes"), name) and both(merged.get("scenes"), name)]
+
+
+def _omitted(base, merged, overlay):
+    """Key paths of ``base``'s top-level keys and scenes, still in ``merged``, that ``overlay`` does not give."""
+    out = [(key,) for key in base if key != "scenes" and key in merged and key not in overlay]
+    if "scenes" in overlay and not isinstance(overlay["scenes"], dict):     # scenes: null drops them all
+        return out
+    given = overlay.get("scenes") or {}
+    base_scenes, merged_scenes = base.get("scenes"), merged.get("scenes")
+    if isinstance(base_scenes, dict) and isinstance(merged_scenes, dict):
+        out += [("scenes", name) for name in base_scenes if name in merged_scenes and name not in given]
+    return out
+
+
+def _may_be_null(path, config, root) -> bool:
+    """Whether the key at ``path`` may be dropped with null: the schema gives it a default, or it
+    is a named entry (a scene, a patient's posture). ``kind``, a patient's ``postures`` and its
+    measured values may not: the config would then be refused. ``config`` gives each scene's kind."""
+    if root is None:
+        return True
+    node, nullable = root, True
+    for depth, key in enumerate(path):
+        if depth == 1 and path[0] == "scenes":
+            scene = (config.get("scenes") or {}).get(key)
+            node = root["definitions"].get(scene.get("kind")) if isinstance(scene, dict) else None
+            if node is None:                          # an unknown kind: validation names it
+                return True
+            nullable = True
+            continue
+        node = _resolve(node, root)
+        properties = node.get("properties", {})
+        if key in properties:
+            child = _resolve(properties[key], root)
+            nullable = key not in node.get("required", []) and "default" in child
+        elif isinstance(node.get("additionalProperties"), dict):
+            child, nullable = node["additionalProperties"], True
+        else:                                         # a key the schema does not know: validation names it
+            return True
+        node = child
+    return nullable
+
+
+def _dotted(paths):
+    return ", ".join(".".join(map(str, p)) for p in paths)
+
+
+def check_overlays(base_path, overlay_paths, replace=False, schema_path=None) -> list:
     """Refuse a ``--configfile`` that redefines a scene or section of ``config.yaml`` but
-    leaves out some of its keys.
+    leaves out some of its keys, or, being then a copy of ``config.yaml``, some of its
+    scenes or sections.
 
     Snakemake merges each ``--configfile`` into ``config.yaml`` key by key, so a key that a
-    copy leaves out (a posture, a measured quantity) silently keeps ``config.yaml``'s
-    value: the copy runs what it no longer says. Scenes that ``config.yaml`` does not have,
-    and top-level keys, are added or replaced as usual; that is what the opt-in configs of
-    ``config/`` do. A list is replaced whole, so it cannot leave anything behind.
+    copy leaves out (a posture, a measured quantity, a whole scene or section) silently
+    keeps ``config.yaml``'s value: the copy runs what it no longer says. A file that adds
+    scenes of new names and sets top-level keys (``run_scenes``, ``max_starts``) is an
+    overlay, merged as usual; that is what the opt-in configs of ``config/`` do; so is one
+    that gives a section (``solver``, ``constants``, ``report``) again, which must give every
+    key of it. A file that gives one of ``config.yaml``'s scenes again is a copy: it must
+    give every key of that scene, and every top-level key and scene of ``config.yaml``, or
+    drop them with null. A list is replaced whole, so it cannot leave anything behind.
 
     Parameters
     ----------
@@ -195,7 +261,10 @@ def check_overlays(base_path, overlay_paths, replace=False) -> list:
         compared with ``config.yaml`` merged with the files before it.
     replace : bool
         ``--replace-workflow-config``: Snakemake discards ``config.yaml``, so the files are
-        compared only with the files before them.
+        compared only with the files before them, and none is a copy of ``config.yaml``.
+    schema_path : str or Path, optional
+        The config schema (default: the workflow's), which says which keys may be null:
+        the refusal says to give the others.
 
     Returns
     -------
@@ -209,37 +278,59 @@ def check_overlays(base_path, overlay_paths, replace=False) -> list:
         Naming every key left out, the file that gives it and the file that leaves it out.
     """
     sources = [] if replace or not os.path.exists(base_path) else [(str(base_path), _load_config_file(base_path))]
-    merged = copy.deepcopy(sources[0][1]) if sources else {}
+    base = sources[0][1] if sources else {}
+    schema_path = DEFAULT_SCHEMA if schema_path is None else schema_path
+    root = load_schema(schema_path) if os.path.exists(schema_path) else None
+    merged = copy.deepcopy(base)
     drops = []
     for path in overlay_paths:
         overlay = _load_config_file(path)
         path = _shown(path)
         missing = []
         for key, value in overlay.items():
-            base = merged.get(key)
-            if not (isinstance(value, dict) and isinstance(base, dict)):
+            previous = merged.get(key)
+            if not (isinstance(value, dict) and isinstance(previous, dict)):
                 continue
             if key == "scenes":                                   # scenes are added; a redefined one is compared
                 for name, scene in value.items():
-                    if isinstance(scene, dict) and isinstance(base.get(name), dict):
-                        missing += _left_out(base[name], scene, ("scenes", name))
+                    if isinstance(scene, dict) and isinstance(previous.get(name), dict):
+                        missing += _left_out(previous[name], scene, ("scenes", name))
             else:
-                missing += _left_out(base, value, (key,))
+                missing += _left_out(previous, value, (key,))
+        redefined = _redefined(base, merged, overlay)
+        whole = _omitted(base, merged, overlay) if redefined else []
+        missing += whole
         if missing:
-            origins = " and ".join(name for name, tree in sources if any(_gives(tree, m) for m in missing))
-            keys = ", ".join(".".join(map(str, m)) for m in missing)
-            one = len(missing) == 1
-            raise ConfigError(
-                f"config key{'' if one else 's'} {keys}: in {origins} but left out of {path}, which Snakemake "
-                f"merges into {origins} key by key, so {origins}'s value{'' if one else 's'} would run; drop "
-                f"{'it' if one else 'each'} with null in {path} ({missing[0][-1]}: null), or run {path} alone "
-                f"with --replace-workflow-config")
+            raise ConfigError(_left_out_message(missing, whole, redefined, sources, path,
+                                                _merge(copy.deepcopy(merged), overlay), root))
         drops += _null_drops(merged, overlay)
         _merge(merged, overlay)
         for drop in drops:
             _pop(merged, drop)
         sources.append((str(path), overlay))
     return drops
+
+
+def _left_out_message(missing, whole, redefined, sources, path, config, root) -> str:
+    """The refusal of :func:`check_overlays`: the keys, where they come from, why they would run, what to do."""
+    origins = " and ".join(name for name, tree in sources if any(_gives(tree, m) for m in missing))
+    one = len(missing) == 1
+    text = (f"config key{'' if one else 's'} {_dotted(missing)}: in {origins} but left out of {path}, which "
+            f"Snakemake merges into {origins} key by key, so {origins}'s value{'' if one else 's'} would run")
+    if whole:
+        base = sources[0][0]
+        text += (f" ({path} redefines {base}'s {_dotted(redefined[:1])}: a copy of {base}, which must give or "
+                 f"drop each scene and section of it)")
+    required = [m for m in missing if not _may_be_null(m, config, root)]
+    nullable = [m for m in missing if m not in required]
+    if not required:
+        return (f"{text}; drop {'it' if one else 'each'} with null in {path} ({nullable[0][-1]}: null), or run "
+                f"{path} alone with --replace-workflow-config")
+    them = "it" if len(required) == 1 else "them"
+    advice = (f"give {them if not nullable else _dotted(required)} in {path} (required: null cannot drop {them})")
+    if nullable:
+        advice += f"; drop the other{'' if len(nullable) == 1 else 's'} with null ({nullable[0][-1]}: null)"
+    return f"{text}; {advice}"
 
 
 def _shown(path):
@@ -342,14 +433,18 @@ def _patient_posture(key, values, where):
 def _patient_values(scene, where):
     """Refuse values no shape of the model produces (unless allow_implausible), naming rule and values."""
     from .measure import MeasurementError
-    from .patient import patient_from_dict
+    from .patient import ImplausibleMeasurements, patient_from_dict
     try:
         with warnings.catch_warnings():                 # inconsistent values are run, and flagged by the job
             warnings.simplefilter("ignore")
             patient_from_dict({"measurement_set": scene["measurement_set"], "units": scene["units"],
                                "postures": scene["postures"]}, allow_implausible=scene["allow_implausible"])
+    except ImplausibleMeasurements as err:              # it names the Python argument, last: name the key
+        text, allow = str(err), f"{where}.allow_implausible: true"
+        text = text[:-len("allow_implausible")] + allow if text.endswith("allow_implausible") else f"{text} ({allow})"
+        raise ConfigError(f"config key {where}.postures: {text}") from None
     except MeasurementError as err:
-        raise ConfigError(f"config key {where}.postures: {err} (set {where}.allow_implausible: true)") from None
+        raise ConfigError(f"config key {where}.postures: {err}") from None
 
 
 def _cap(values, where):

@@ -11,8 +11,11 @@ instead, which
    line: Snakemake reads these files before the Snakefile, and says neither;
 2. looks for live Snakemake processes working in the folder: a run, or a job of one;
 3. if there is none, removes the lock files a killed run left and adds
-   ``--rerun-incomplete``; if there is one, leaves its lock and its unfinished outputs
-   alone and says so (Snakemake then refuses to run if the two runs' files overlap);
+   ``--rerun-incomplete``; if there is a run (or a job of a live run), leaves its lock and
+   its unfinished outputs alone and says so (Snakemake then refuses to run if the two runs'
+   files overlap); a job whose Snakemake is gone (``kill -9`` of Snakemake's process
+   alone leaves its jobs running, orphaned) holds no lock but still writes the output that
+   the rerun would write: it is named, waited for, and then treated as above;
 4. replaces itself with ``snakemake`` and the same arguments.
 
 Processes are read from ``/proc`` (Linux). Where there is none, a lock is left in place
@@ -25,6 +28,7 @@ import os
 import re
 import shutil
 import sys
+import time
 from pathlib import Path
 
 from .workflow_config import ConfigError, check_config_files
@@ -97,6 +101,55 @@ def is_snakemake(argv) -> bool:
     return any(scripts in word for word in argv[1:3])
 
 
+def is_job(argv) -> bool:
+    """Whether a Snakemake command line (:func:`is_snakemake`) is a job's rather than a run's.
+
+    A ``script:`` job (``python <folder>/.snakemake/scripts/tmpXXXX.name.py``), or a job
+    Snakemake spawns as ``python -m snakemake --target-jobs ...``.
+    """
+    argv = list(argv)
+    scripts = f"{os.sep}.snakemake{os.sep}scripts{os.sep}"
+    return any(scripts in word for word in argv[1:3]) or "--target-jobs" in argv
+
+
+def _parent(proc, pid):
+    """The parent pid of ``pid`` from ``proc/PID/stat``, or None if it cannot be read."""
+    try:
+        stat = (Path(proc) / str(pid) / "stat").read_text()
+        return int(stat[stat.rindex(")") + 2:].split()[1])     # after "pid (comm) state"; comm may hold ")"
+    except (OSError, ValueError, IndexError):
+        return None
+
+
+def _command(proc, pid):
+    try:
+        return [w.decode(errors="replace") for w in (Path(proc) / str(pid) / "cmdline").read_bytes().split(b"\0")[:-1]]
+    except OSError:
+        return None
+
+
+def orphaned(pid, argv, proc="/proc") -> bool:
+    """Whether the Snakemake process ``pid`` is a job whose Snakemake run is gone.
+
+    A job of a live run has the run among its ancestors; one of a run killed alone (``kill
+    -9`` of its pid, not of its process group) has been handed to init or a subreaper. Where
+    an ancestor cannot be read, the job counts as a live run's: its lock is left alone.
+    """
+    if not is_job(argv):
+        return False
+    seen = {pid}
+    parent = _parent(proc, pid)
+    while parent is not None and parent > 1 and parent not in seen:
+        seen.add(parent)
+        command = _command(proc, parent)
+        if command is None:
+            return False
+        if is_snakemake(command) and not is_job(command):
+            return False
+        parent = _parent(proc, parent)
+    return parent is not None
+
+
 def lock_files(workdir) -> list[Path]:
     """The lock files of Snakemake's default (file) persistence in ``workdir``."""
     folder = Path(workdir) / ".snakemake" / "locks"
@@ -154,7 +207,11 @@ def snakemake_processes(workdir, proc="/proc"):
     return sorted(found)
 
 
-def recover(workdir, proc="/proc"):
+#: Seconds between two looks at an orphaned job that :func:`recover` waits for.
+POLL_SECONDS = 5.0
+
+
+def recover(workdir, proc="/proc", sleep=time.sleep, say=None):
     """Clear a killed run's lock in ``workdir`` when no Snakemake process works there.
 
     Parameters
@@ -163,6 +220,11 @@ def recover(workdir, proc="/proc"):
         Snakemake's working folder.
     proc : str
         The process file system.
+    sleep : callable
+        ``sleep(seconds)`` between two looks at an orphaned job (:func:`orphaned`), which
+        is waited for: it still writes an output that the rerun would write.
+    say : callable, optional
+        ``say(line)`` tells the user what is waited for (default: a line on stderr).
 
     Returns
     -------
@@ -175,8 +237,18 @@ def recover(workdir, proc="/proc"):
     workdir = Path(workdir).resolve()
     locks = lock_files(workdir)
     live = snakemake_processes(workdir, proc)
+    said = set()
+    while live and all(orphaned(pid, _command(proc, pid) or [], proc) for pid, command in live):
+        for pid, command in live:
+            if pid not in said:
+                shown = command if len(command) <= 100 else command[:99] + "…"
+                (say or _stderr)(f"{PROG}: job process {pid} of a killed Snakemake run still works in {workdir} "
+                                 f"({shown}): waiting for it to end (or kill {pid}); its job is then rerun")
+                said.add(pid)
+        sleep(POLL_SECONDS)
+        live = snakemake_processes(workdir, proc)
     if live:
-        pid, command = live[0]
+        pid, command = next(((p, c) for p, c in live if not orphaned(p, _command(proc, p) or [], proc)), live[0])
         command = command if len(command) <= 100 else command[:99] + "…"
         return [], (f"{PROG}: Snakemake process {pid} works in {workdir} ({command}): its lock and "
                     f"unfinished outputs are left alone")
@@ -196,6 +268,10 @@ def recover(workdir, proc="/proc"):
     note = (f"{PROG}: removed the lock a killed Snakemake run left in {workdir}/.snakemake/locks "
             f"(no Snakemake process works there); its unfinished jobs are rerun") if locks else None
     return ["--rerun-incomplete"], note
+
+
+def _stderr(line):
+    print(line, file=sys.stderr, flush=True)
 
 
 def _snakemake_command():

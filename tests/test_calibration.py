@@ -104,6 +104,35 @@ def test_the_summary_applies_the_rule_to_its_own_numbers(tiny_study):
     assert float(ds.attrs["min_det_F"]) == 0.01 and "smallest c" in ds.attrs["rule"]
 
 
+def test_the_summary_stores_each_identification_s_fit_verdict_beside_its_success(tmp_path):
+    """The optimiser's success (1 for all three runs here) is not what an estimate is worth."""
+    import xarray as xr
+
+    from breastcore.calibration_scene import _identification_variables
+    from breastcore.datasets import provenance, write_netcdf
+    verdicts = [["consistent", "misfit"], ["not_converged", "consistent"]]       # (c, start), on medium
+    cases = []
+    for i, row in enumerate(verdicts):
+        runs = []
+        for start, verdict in enumerate(row):
+            ds = xr.Dataset({"relative_error": ("parameter", np.full(6, 0.01 * (start + 1))),
+                             "wall_time": ("iteration", [0.0, 1.5]), "cost": ("iteration", [1.0, 1e-3])})
+            for variable in ds.variables.values():
+                variable.attrs.update(units="1", long_name="made up for the test")
+            ds.attrs = provenance("identify", None, None, success=int(verdict != "not_converged"), verdict=verdict,
+                                  iterations=1)
+            path = write_netcdf(ds, tmp_path / f"id_{i}_{start}.nc")
+            runs.append({"mesh": "medium", "start": start, "identification": str(path)})
+        cases.append({"runs": runs})
+    variables = _identification_variables({"identify_meshes": ["medium"], "starts": 2, "cases": cases})
+    summary = xr.Dataset(variables)
+    verdict = summary["identification_verdict"]
+    assert verdict.dims == summary["identification_success"].dims == ("chassaignac", "identify_mesh", "start")
+    assert verdict.values[:, 0].tolist() == verdicts
+    assert summary["identification_success"].values[:, 0].tolist() == [[1, 1], [0, 1]]
+    assert verdict.attrs["units"] == "1" and "fit verdict" in verdict.attrs["long_name"]
+
+
 def test_the_uniqueness_probe_is_a_second_difference_of_cold_solves(tiny_study):
     from breastcore.datasets import open_dataset
     from breastcore.parameters import IDENTIFIED

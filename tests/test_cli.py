@@ -318,6 +318,31 @@ def test_measurement_dataset_with_a_nan_names_the_value(files, tmp_path, capsys,
     assert all(w in line for w in ("--measurements", "bent45", "area", "nan")), line
 
 
+@pytest.mark.parametrize("weighted, words", [
+    ([], ["every weight is 0", "0 measurements cannot determine 6 parameters"]),
+    ([(0, 0), (0, 1), (0, 2), (0, 3), (0, 4)], ["only 5 of 10 measurements have weight > 0",
+                                                "5 measurements cannot determine 6 parameters"])])
+def test_too_few_weighted_measurements_are_refused_while_parsing(weighted, words, files, tmp_path, capsys,
+                                                                  no_work):
+    """All weights 0 reached the identification, which stopped with a bare ValueError and exit 1."""
+    from dataclasses import replace
+
+    import numpy as np
+
+    from breastcore.cli import main
+    from breastcore.datasets import open_dataset, write_netcdf
+    from breastcore.targets import measurement_dataset, target_from_dataset
+    target = target_from_dataset(open_dataset(files["measure"]))          # two postures: 10 measurements
+    weights = np.zeros_like(target.weights)
+    for index in weighted:
+        weights[index] = 1.0
+    path = write_netcdf(measurement_dataset(replace(target, weights=weights), "patient"), tmp_path / "w.nc")
+    assert main(["identify", "--measurements", str(path), "--out", str(tmp_path / "o.nc")]) == 2
+    line = one_error_line(capsys, "identify")
+    assert "--measurements" in line and str(path) in line and all(w in line for w in words), line
+    assert not (tmp_path / "o.nc").exists()
+
+
 @pytest.mark.parametrize("value, words", [
     ("-5", ["standing", "volume", "-5 ml", "> 0"]), ("0", ["standing", "volume", "0 ml"]),
     (".nan", ["standing", "volume", "nan ml"])])
@@ -340,6 +365,56 @@ def test_unparsable_patient_file_is_one_line(tmp_path, capsys):
         assert main(["measure", "--patient", str(tmp_path / name), "--out", str(tmp_path / "m.nc")]) == 2
         line = one_error_line(capsys, "measure")
         assert "--patient" in line and name in line and all(w in line for w in words), line
+
+
+def test_an_unusual_patient_value_is_one_warning_line(tmp_path):
+    """Python's own warning line (``patient.py:NNN: MeasurementWarning:`` and a source line) is not
+    printed before the command's: stderr is the one warning, and the dataset is written."""
+    path = tmp_path / "p.yaml"
+    path.write_text("postures:\n"
+                    "  standing: {volume: 601, area: 362, height: 600, frontal_depth: 51, back_depth: 41}\n"
+                    "  fours: {volume: 991, area: 242, height: 112, frontal_depth: 66, back_depth: 66}\n")
+    out = run("measure", "--patient", str(path), "--out", str(tmp_path / "m.nc"))
+    assert out.returncode == 0, out.stderr
+    lines = out.stderr.splitlines()
+    assert len(lines) == 1, out.stderr
+    assert lines[0].startswith("breastcore measure: warning: posture 'standing': height 600 mm"), lines[0]
+    assert (tmp_path / "m.nc").exists()
+
+
+def test_identify_warns_of_each_input_note_of_its_measurements(tmp_path):
+    """The measurement dataset's input_notes (implausible values run as asked, unusual ones) are on
+    identify's stderr too, as warnings, not only in the datasets."""
+    import json
+
+    from breastcore.datasets import open_dataset
+    path = tmp_path / "p.yaml"
+    path.write_text("postures:\n"
+                    "  standing: {volume: 601, area: 362, height: 600, frontal_depth: 51, back_depth: 41}\n"
+                    "  fours: {volume: 991, area: 242, height: 112, frontal_depth: 66, back_depth: 66}\n")
+    assert run("measure", "--patient", str(path), "--out", str(tmp_path / "m.nc")).returncode == 0
+    notes = json.loads(open_dataset(tmp_path / "m.nc").attrs["input_notes"])
+    assert notes and any("height 600 mm" in note for note in notes), notes
+    out = run("identify", "--measurements", str(tmp_path / "m.nc"), "--mesh", "coarse", "--max-iterations", "1",
+              "--out", str(tmp_path / "id.nc"))
+    assert (tmp_path / "id.nc").exists(), out.stderr
+    lines = out.stderr.splitlines()
+    for note in notes:
+        assert lines.count(f"breastcore identify: warning: {note}") == 1, out.stderr
+
+
+def test_an_implausible_patient_is_refused_naming_the_option_that_runs_it(tmp_path, capsys):
+    """The command line names its own option, --allow-implausible, not the config key."""
+    from breastcore.cli import main
+    path = tmp_path / "p.yaml"
+    path.write_text("postures:\n"
+                    "  standing: {volume: 601, area: 1, height: 115, frontal_depth: 51, back_depth: 41}\n"
+                    "  fours: {volume: 991, area: 242, height: 112, frontal_depth: 66, back_depth: 66}\n")
+    assert main(["measure", "--patient", str(path), "--out", str(tmp_path / "m.nc")]) == 2
+    line = one_error_line(capsys, "measure")
+    assert "posture 'standing': area 1 cm2" in line and line.endswith("run them flagged with --allow-implausible"), line
+    assert "allow_implausible" not in line, line
+    assert main(["measure", "--patient", str(path), "--allow-implausible", "--out", str(tmp_path / "m.nc")]) == 0
 
 
 # --- the closing note's table, end to end in a fresh process -------------------------------------

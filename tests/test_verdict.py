@@ -2,6 +2,7 @@
 patients of the issue, end to end through the command line."""
 
 import json
+from collections import Counter
 import subprocess
 import sys
 import warnings
@@ -129,3 +130,75 @@ def test_absurd_patients_are_never_labelled_a_success(tmp_path, quantity, value,
     assert f"fit verdict: {verdict}" in shown and worst in shown
     if allow:
         assert "implausible, run as asked" in table["input_notes"][0] and "input note: implausible" in shown
+
+
+# -- what the scene tables and `show` count and mark, on small hand-made identification datasets --
+
+def _identification(path, verdict, success, determined=(1, 1, 1, 1, 1, 1), error=0.01):
+    """An identification dataset with what the scene summaries, parameter_table and show read."""
+    import xarray as xr
+
+    from breastcore.datasets import provenance, write_netcdf
+    from breastcore.parameters import IDENTIFIED
+    truth = np.array([0.0562, 0.05, 1000.0, 150.0, 8000.0, 1600.0])
+    estimate = truth * (1 + error)
+    ok = np.array(determined, bool)
+    postures, quantities = ["standing", "fours"], ["volume", "area", "height", "frontal_depth", "back_depth"]
+    ds = xr.Dataset(
+        {"parameters": (("iteration", "parameter"), np.stack([truth * 1.3, estimate])),
+         "cost": (("iteration",), [1.0, 1e-3]),
+         "wall_time": (("iteration",), [0.0, 2.0]),
+         "measurement_error": (("iteration", "posture", "quantity"), np.full((2, 2, 5), 0.01)),
+         "estimate": (("parameter",), estimate), "truth": (("parameter",), truth),
+         "relative_error": (("parameter",), estimate / truth - 1),
+         "interval_low": (("parameter",), np.where(ok, estimate * 0.9, np.nan)),
+         "interval_high": (("parameter",), np.where(ok, estimate * 1.1, np.nan)),
+         "interval_decades": (("parameter",), np.where(ok, 0.09, 3.5)),
+         "determined": (("parameter",), ok.astype(np.int8))},
+        coords={"parameter": list(IDENTIFIED), "posture": postures, "quantity": quantities, "iteration": [0, 1]})
+    for variable in ds.variables.values():
+        variable.attrs.update(units="1", long_name="made up for the test")
+    ds.attrs = provenance("identify", None, None, success=int(success), verdict=verdict,
+                          verdict_message=f"{verdict}: made up", iterations=1, forward_solves=4,
+                          title="breastcore parameter identification", input_notes="[]", regime_warning="")
+    return str(write_netcdf(ds, path))
+
+
+def test_the_error_table_counts_fit_verdicts_not_optimiser_exits(tmp_path):
+    """Each run met the optimiser's stopping test (success = 1); its verdict is what is counted."""
+    from breastcore.scene import error_table, synthetic_summary
+    verdicts = {("coarse", 0): "consistent", ("coarse", 1): "misfit", ("coarse", 2): "misfit",
+                ("medium", 0): "consistent", ("medium", 1): "consistent", ("medium", 2): "not_converged"}
+    runs, paths = [], []
+    for (mesh, start), verdict in verdicts.items():
+        runs.append({"mesh": mesh, "offset": 0.3, "start": start})
+        paths.append(_identification(tmp_path / f"{mesh}{start}.nc", verdict, success=verdict != "not_converged"))
+    summary = synthetic_summary(runs, paths, "fake")
+    assert list(summary["verdict"].values) == list(verdicts.values())
+    assert list(summary["success"].values) == [1, 1, 1, 1, 1, 0]
+    table = error_table(summary)
+    for mesh in ("coarse", "medium"):
+        row = table.xs(mesh, level="mesh").iloc[0]
+        expected = Counter(v for (m, _), v in verdicts.items() if m == mesh)
+        assert {v: int(row[v]) for v in ("consistent", "misfit", "not_converged")} == \
+            {v: expected.get(v, 0) for v in ("consistent", "misfit", "not_converged")}, row
+
+
+def test_an_undetermined_parameter_is_marked_in_show_and_the_parameters_csv(tmp_path):
+    import pandas as pd
+
+    from breastcore.commands.browse import describe
+    from breastcore.datasets import open_dataset
+    from breastcore.scene import parameter_table
+    ds = open_dataset(_identification(tmp_path / "id.nc", "consistent", True, determined=(1, 1, 0, 1, 0, 1)))
+    shown = describe(ds)
+    line = next(l for l in shown.splitlines() if "not determined by these measurements" in l)
+    assert line.split(": ")[-1] == "lambda_breast, lambda_skin", shown
+    csv = tmp_path / "parameters.csv"
+    parameter_table(ds).to_csv(csv, index=False)                  # as the parameter_table rule writes it
+    table = pd.read_csv(csv).set_index("parameter")
+    undetermined = table["determined"].str.startswith("no: not determined by these measurements")
+    assert list(table.index[undetermined]) == ["lambda_breast", "lambda_skin"]
+    assert table.loc[undetermined, ["ci95_low", "ci95_high"]].isna().all().all()   # no bounds, not huge ones
+    assert table.loc[~undetermined, ["ci95_low", "ci95_high"]].notna().all().all()
+    assert (table.loc[undetermined, "interval_decades"] > 1).all()

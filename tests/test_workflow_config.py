@@ -94,6 +94,13 @@ def test_patient_with_one_posture_is_refused():
     assert msg.startswith("config key scenes.example_patient.postures:") and "at least two postures" in msg
 
 
+def test_an_implausible_patient_is_refused_naming_the_config_key_that_runs_it():
+    msg = _bad(lambda c: c["scenes"]["example_patient"]["postures"]["standing"].update(area=1))
+    assert msg.startswith("config key scenes.example_patient.postures: posture 'standing': area 1 cm2"), msg
+    assert msg.endswith("run them flagged with scenes.example_patient.allow_implausible: true"), msg
+    assert "--allow-implausible" not in msg
+
+
 def test_non_finite_number():
     msg = _bad(lambda c: c["constants"].update(chassaignac=float("nan")))
     assert "constants.chassaignac" in msg and "finite" in msg
@@ -376,22 +383,104 @@ def _planned(out):
     return set(re.findall(r"^    output: (.*)$", out.stdout, re.M))
 
 
-@pytest.mark.parametrize("edit, key", [
-    (lambda c: c["scenes"]["example_patient"]["postures"].pop("fours"), "scenes.example_patient.postures.fours"),
+DROP = "drop it with null in copy.yaml ({}: null), or run copy.yaml alone with --replace-workflow-config"
+GIVE = "give it in copy.yaml (required: null cannot drop it)"
+
+
+@pytest.mark.parametrize("edit, key, advice", [
+    (lambda c: c["scenes"]["example_patient"]["postures"].pop("fours"), "scenes.example_patient.postures.fours",
+     DROP.format("fours")),
     (lambda c: c["scenes"]["example_patient"]["postures"]["bent45"].pop("height"),
-     "scenes.example_patient.postures.bent45.height"),
-    (lambda c: c["constants"].pop("chassaignac"), "constants.chassaignac")],
-    ids=["posture", "quantity", "section key"])
-def test_a_partial_configfile_copy_is_refused_naming_the_key(tmp_path, edit, key):
+     "scenes.example_patient.postures.bent45.height", GIVE),          # height: null would be refused
+    (lambda c: c["scenes"]["example_patient"].pop("kind"), "scenes.example_patient.kind", GIVE),
+    (lambda c: c["constants"].pop("chassaignac"), "constants.chassaignac", DROP.format("chassaignac"))],
+    ids=["posture", "quantity", "kind", "section key"])
+def test_a_partial_configfile_copy_is_refused_naming_the_key(tmp_path, edit, key, advice):
     """A real dry run of a copy of config.yaml with a key left out, which Snakemake's merge
-    would silently restore from config.yaml (issue #19, item 5)."""
+    would silently restore from config.yaml (issue #19, item 5). Null is offered only for a
+    key that may be null: ``kind: null`` or ``height: null`` would be refused next."""
     copy_file = _write_copy(tmp_path, edit)
     out = _dry_run(tmp_path, "--configfile", copy_file)
     assert out.returncode == 1, out.stdout[-2000:]
     assert out.stderr.splitlines() == [
         f"ConfigError: config key {key}: in config.yaml but left out of copy.yaml, which Snakemake merges into "
-        f"config.yaml key by key, so config.yaml's value would run; drop it with null in copy.yaml "
-        f"({key.rsplit('.', 1)[-1]}: null), or run copy.yaml alone with --replace-workflow-config"]
+        f"config.yaml key by key, so config.yaml's value would run; {advice}"]
+
+
+@pytest.mark.parametrize("edit, keys, redefined", [
+    (lambda c: c["scenes"].pop("forward_demo"), "scenes.forward_demo", "scenes.paper_synthetic"),
+    (lambda c: c.pop("constants"), "constants", "scenes.paper_synthetic"),
+    (lambda c: [c.pop(k) for k in ("results", "solver", "constants", "report")] and
+     [c["scenes"].pop(n) for n in ("paper_synthetic", "error_vs_runtime", "forward_demo")],
+     "results, solver, constants, report, scenes.paper_synthetic, scenes.error_vs_runtime, scenes.forward_demo",
+     "scenes.example_patient")],
+    ids=["scene", "section", "all but one scene"])
+def test_a_configfile_copy_that_leaves_out_a_scene_or_section_is_refused_naming_it(tmp_path, edit, keys, redefined):
+    """A copy of config.yaml (it redefines one of its scenes) with a whole scene or section
+    deleted: Snakemake's merge would run config.yaml's (issue #19, G1)."""
+    copy_file = _write_copy(tmp_path, edit)
+    out = _dry_run(tmp_path, "--configfile", copy_file)
+    assert out.returncode == 1, out.stdout[-2000:]
+    first = keys.split(", ")[0].rsplit(".", 1)[-1]
+    one = "," not in keys
+    assert out.stderr.splitlines() == [
+        f"ConfigError: config key{'' if one else 's'} {keys}: in config.yaml but left out of copy.yaml, which "
+        f"Snakemake merges into config.yaml key by key, so config.yaml's value{'' if one else 's'} would run "
+        f"(copy.yaml redefines config.yaml's {redefined}: a copy of config.yaml, which must give or drop each "
+        f"scene and section of it); drop {'it' if one else 'each'} with null in copy.yaml ({first}: null), or run "
+        f"copy.yaml alone with --replace-workflow-config"]
+
+
+def test_a_copy_drops_a_scene_with_null(tmp_path):
+    dropped = _write_copy(tmp_path, lambda c: c["scenes"].update(forward_demo=None), "dropped.yaml")
+    out = _dry_run(tmp_path, "--configfile", dropped)
+    assert out.returncode == 0, out.stderr
+    planned = _planned(out)
+    assert any("scenes/example_patient/" in p for p in planned) and not any("forward_demo" in p for p in planned)
+
+
+def test_null_is_offered_exactly_for_the_keys_that_may_be_null(tmp_path):
+    """Each key a refusal says to drop with null gives a valid config when dropped; each it says to
+    give would be refused by the validation if dropped."""
+    from breastcore.workflow_config import check_overlays, drop_keys
+    base = tmp_path / "config.yaml"
+    base.write_text((ROOT / "config.yaml").read_text())
+    paths = [("scenes", "example_patient", "postures", "fours"), ("scenes", "example_patient", "postures"),
+             ("scenes", "example_patient", "postures", "bent45", "height"), ("scenes", "example_patient", "kind"),
+             ("scenes", "example_patient", "units"), ("scenes", "example_patient", "units", "volume"),
+             ("scenes", "example_patient", "measurement_set"), ("scenes", "paper_synthetic", "truth", "R"),
+             ("scenes", "paper_synthetic", "truth"),
+             ("scenes", "forward_demo", "kind"), ("scenes", "forward_demo"), ("constants", "density"),
+             ("constants",), ("report", "enabled"), ("results",)]
+    offered = {}
+    for path in paths:
+        def edit(c, value):
+            node = c
+            for key in path[:-1]:
+                node = node[key]
+            if value == "pop":
+                node.pop(path[-1])
+            else:
+                node[path[-1]] = value
+        left_out = _write_copy(tmp_path, lambda c: edit(c, "pop"), "left_out.yaml")
+        with pytest.raises(ConfigError) as info:
+            check_overlays(base, [left_out], schema_path=SCHEMA)
+        message = str(info.value)
+        assert message.startswith(f"config key {'.'.join(path)}: "), message
+        offered[path] = "with null" in message
+        assert offered[path] != ("null cannot drop" in message), message
+        nulled = _write_copy(tmp_path, lambda c: edit(c, None), "nulled.yaml")
+        config = copy.deepcopy(DEFAULT)
+        edit(config, None)
+        drop_keys(config, check_overlays(base, [nulled], schema_path=SCHEMA))
+        if offered[path]:
+            validate_config(config, SCHEMA)
+        else:
+            with pytest.raises(ConfigError):
+                validate_config(config, SCHEMA)
+    assert {".".join(p) for p, null in offered.items() if not null} == {
+        "scenes.example_patient.postures", "scenes.example_patient.postures.bent45.height",
+        "scenes.example_patient.kind", "scenes.forward_demo.kind"}
 
 
 def test_a_copy_drops_a_posture_with_null_or_runs_alone_with_replace_workflow_config(tmp_path):
@@ -436,10 +525,15 @@ def test_check_overlays_compares_each_file_with_what_is_merged_before_it(tmp_pat
     base.write_text("scenes:\n  a: {kind: forward, mesh: coarse, postures: [standing]}\nsolver: {method: newton}\n")
     (tmp_path / "one.yaml").write_text("scenes:\n  b: {kind: forward, mesh: medium}\n")
     (tmp_path / "two.yaml").write_text("scenes:\n  b: {kind: forward}\n")
-    (tmp_path / "drop.yaml").write_text("scenes:\n  a: {mesh: null, kind: forward, postures: [fours]}\n")
-    (tmp_path / "again.yaml").write_text("scenes:\n  a: {mesh: medium, kind: forward, postures: [fours]}\n")
+    # a file that redefines scene a of config.yaml is a copy: it gives (or drops) solver too
+    (tmp_path / "drop.yaml").write_text("scenes:\n  a: {mesh: null, kind: forward, postures: [fours]}\n"
+                                        "solver: {method: newton}\n")
+    (tmp_path / "again.yaml").write_text("scenes:\n  a: {mesh: medium, kind: forward, postures: [fours]}\n"
+                                         "solver: {method: newton}\n")
     (tmp_path / "gone.yaml").write_text("scenes:\n  a: null\n")
-    (tmp_path / "partial.yaml").write_text("scenes:\n  a: {kind: forward}\n")
+    (tmp_path / "partial.yaml").write_text("scenes:\n  a: {kind: forward}\nsolver: {method: newton}\n")
+    (tmp_path / "no_solver.yaml").write_text("scenes:\n  a: {kind: forward, mesh: coarse, postures: [fours]}\n")
+    (tmp_path / "solver_only.yaml").write_text("solver: {method: cg}\n")
     one, two, drop, again, gone = (str(tmp_path / f"{n}.yaml") for n in ("one", "two", "drop", "again", "gone"))
     assert check_overlays(base, [one]) == []                      # a new scene: added
     with pytest.raises(ConfigError, match=rf"^config key scenes\.b\.mesh: in {re.escape(one)} but left out of "
@@ -459,6 +553,14 @@ def test_check_overlays_compares_each_file_with_what_is_merged_before_it(tmp_pat
     drop_keys(config, check_overlays(base, [drop, again]))       # given again by a later file: kept
     assert config["scenes"]["a"]["mesh"] == "medium"
     assert check_overlays(base, [gone]) == [("scenes", "a")]     # a scene dropped whole
+    with pytest.raises(ConfigError, match=r"^config key solver: in .*config\.yaml but left out of .*no_solver\.yaml"
+                                          r".* \(.*no_solver\.yaml redefines .*config\.yaml's scenes\.a: a copy"):
+        check_overlays(base, [str(tmp_path / "no_solver.yaml")])  # a copy leaves out a section
+    # a section given whole over config.yaml's scenes is an overlay, not a copy
+    assert check_overlays(base, [str(tmp_path / "solver_only.yaml")]) == []
+    assert check_overlays(base, [two, str(tmp_path / "no_solver.yaml")], replace=True) == []  # no config.yaml
+    (tmp_path / "b_again.yaml").write_text("scenes:\n  b: {kind: forward, mesh: coarse}\n")
+    assert check_overlays(base, [one, str(tmp_path / "b_again.yaml")]) == []   # b is not config.yaml's: no copy
     assert check_overlays(tmp_path / "missing.yaml", [two]) == []
 
 

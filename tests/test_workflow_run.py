@@ -70,13 +70,17 @@ def test_is_snakemake(argv, expected):
 
 
 def _fake_proc(tmp_path, processes):
-    """A /proc with a `self` and, per (pid, argv, cwd), its cmdline and cwd link."""
+    """A /proc with a `self` and, per (pid, argv, cwd[, parent pid]), its cmdline, cwd link and stat
+    (parent 1, init, unless given; None: no stat, as for a process that cannot be read)."""
     proc = tmp_path / "proc"
     (proc / "self").mkdir(parents=True)
-    for pid, argv, cwd in processes:
+    for pid, argv, cwd, *parent in processes:
         (proc / str(pid)).mkdir()
         (proc / str(pid) / "cmdline").write_bytes(b"".join(w.encode() + b"\0" for w in argv))
         (proc / str(pid) / "cwd").symlink_to(cwd)
+        parent = parent[0] if parent else 1
+        if parent is not None:                       # the name is in brackets, and may hold them
+            (proc / str(pid) / "stat").write_text(f"{pid} (py) thon) S {parent} {pid} {pid} 0 -1 4194304\n")
     return proc
 
 
@@ -88,31 +92,84 @@ def _locked(workdir):
     return workdir
 
 
+def _no_wait(seconds):
+    raise AssertionError("recover() waited: no orphaned job here")
+
+
 @pytest.mark.parametrize("case, live", [
     ("none", False),
-    ("run here", True), ("run from elsewhere with -d here", True), ("job of a killed run here", True),
+    ("run here", True), ("run from elsewhere with -d here", True), ("job of a live run here", True),
+    ("job of a live run's job here", True), ("job whose parent cannot be read", True),
     ("run in another folder", False), ("run from here with -d elsewhere", True)])
 def test_a_lock_is_removed_only_without_a_live_snakemake_in_its_folder(tmp_path, case, live):
     workdir = _locked(tmp_path / "work")
     other = tmp_path / "other"
     other.mkdir()
     python = "/v/bin/python"
+    script = [python, f"{workdir}/.snakemake/scripts/tmpab.identify.py"]
     processes = {
         "none": [(10, ["make", "run"], workdir)],
         "run here": [(11, [python, "/v/bin/snakemake", "--cores", "2"], workdir)],
         "run from elsewhere with -d here": [(12, ["snakemake", "-d", str(workdir)], other)],
-        "job of a killed run here": [(13, [python, f"{workdir}/.snakemake/scripts/tmpab.identify.py"], workdir)],
+        "job of a live run here": [(13, [python, "/v/bin/snakemake", "--cores", "2"], workdir, 5),
+                                   (16, script, workdir, 13)],
+        "job of a live run's job here": [(17, [python, "/v/bin/snakemake", "-d", str(workdir)], other, 1),
+                                         (18, [python, "-m", "snakemake", "--target-jobs", "x"], workdir, 17),
+                                         (19, script, workdir, 18)],
+        "job whose parent cannot be read": [(20, script, workdir, None)],
         "run in another folder": [(14, ["snakemake", "--cores", "2"], other)],
         # before Snakemake has changed to its -d folder, its folder is still this one
         "run from here with -d elsewhere": [(15, ["snakemake", "-d", str(other)], workdir)]}[case]
     proc = _fake_proc(tmp_path, processes)
-    extra, note = recover(workdir, proc=str(proc))
+    extra, note = recover(workdir, proc=str(proc), sleep=_no_wait)
     if live:
         assert extra == [] and len(lock_files(workdir)) == 2
         assert f"Snakemake process {processes[0][0]} works in {workdir}" in note and "left alone" in note
     else:
         assert extra == ["--rerun-incomplete"] and lock_files(workdir) == []
         assert "removed the lock a killed Snakemake run left" in note
+
+
+@pytest.mark.parametrize("parents", [[], [(30, ["bash"], "/", 1)], [(31, ["systemd", "--user"], "/", 1)]],
+                         ids=["init", "a shell", "a subreaper"])
+def test_a_job_whose_snakemake_was_killed_is_waited_for_then_the_lock_removed(tmp_path, parents):
+    """kill -9 of Snakemake's pid alone (not its process group) leaves its jobs running, handed to
+    init or a subreaper: no run holds the lock any more, but the job still writes the output that
+    the rerun would write. It is named and waited for; then the lock is removed, its job rerun."""
+    workdir = _locked(tmp_path / "work")
+    parent = parents[0][0] if parents else 1
+    job = (13, ["/v/bin/python", f"{workdir}/.snakemake/scripts/tmpab.identify.py"], workdir, parent)
+    proc = _fake_proc(tmp_path, [*parents, job])
+    said, waits = [], []
+
+    def sleep(seconds):
+        waits.append(seconds)
+        assert len(lock_files(workdir)) == 2                 # nothing is removed while the job runs
+        if len(waits) == 3:                                  # the job ends
+            shutil.rmtree(proc / "13")
+
+    extra, note = recover(workdir, proc=str(proc), sleep=sleep, say=said.append)
+    assert len(waits) == 3 and len(said) == 1, said          # said once, not at every look
+    assert said[0].startswith(f"breastcore.workflow_run: job process 13 of a killed Snakemake run still works in "
+                              f"{workdir}") and "waiting for it to end (or kill 13)" in said[0]
+    assert extra == ["--rerun-incomplete"] and lock_files(workdir) == []
+    assert "removed the lock a killed Snakemake run left" in note
+
+
+def test_a_run_started_while_an_orphaned_job_is_waited_for_keeps_its_lock(tmp_path):
+    workdir = _locked(tmp_path / "work")
+    proc = _fake_proc(tmp_path, [(13, ["/v/bin/python", f"{workdir}/.snakemake/scripts/tmpab.identify.py"],
+                                  workdir)])
+
+    def sleep(seconds):                                      # meanwhile, someone runs snakemake here
+        shutil.rmtree(proc / "13")
+        (proc / "40").mkdir()
+        (proc / "40" / "cmdline").write_bytes(b"snakemake\0--cores\0" + b"2\0")
+        (proc / "40" / "cwd").symlink_to(workdir)
+
+    extra, note = recover(workdir, proc=str(proc), sleep=sleep, say=lambda line: None)
+    assert extra == [] and len(lock_files(workdir)) == 2
+    assert f"Snakemake process 40 works in {workdir}" in note
 
 
 def test_without_a_process_list_the_lock_is_left_and_the_manual_commands_are_named(tmp_path):

@@ -98,6 +98,8 @@ def run(args):
         raise UsageError(f"identification options: {err}") from None
     ds_m = open_dataset(args.measurements)
     target = target_from_dataset(ds_m)
+    for note in target.notes:                  # what the input checks let through: implausible or unusual values
+        print(f"breastcore identify: warning: {note}", file=sys.stderr)
     mesh, level, _ = mesh_from_args(args)
     problem = ProblemSpec(parameters=base, solver=SolverOptions(method=args.solver, rtol=args.rtol),
                           postures=target.postures,

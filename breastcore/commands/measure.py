@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import sys
+import warnings
 
 from ..cli import UsageError, dataset_file, existing_file, writable_path
 
@@ -28,14 +29,18 @@ def register(sub):
 def run(args):
     from ..datasets import open_dataset, write_netcdf
     from ..measure import MeasurementError
-    from ..patient import load_patient
+    from ..patient import ImplausibleMeasurements, MeasurementWarning, load_patient
     from ..targets import measure_solution, measurement_dataset
 
     if (args.solution is None) == (args.patient is None):
         raise UsageError("give exactly one of SOLUTION.nc or --patient FILE")
     if args.patient is not None:
         try:
-            target = load_patient(args.patient, args.measurement_set, args.allow_implausible)
+            with warnings.catch_warnings():     # Python's own line, with a source line: the notes say it below
+                warnings.simplefilter("ignore", MeasurementWarning)
+                target = load_patient(args.patient, args.measurement_set, args.allow_implausible)
+        except ImplausibleMeasurements as err:  # its advice names the Python argument: name the option
+            raise UsageError(f"--patient: {_allow(err, '--allow-implausible')}") from None
         except MeasurementError as err:
             raise UsageError(f"--patient: {err}") from None
         ds = measurement_dataset(target, "patient")
@@ -55,3 +60,12 @@ def run(args):
     table.columns = [f"{q} [{u}]" for q, u in zip(ds["quantity"].values, ds["quantity_units"].values)]
     print(table.to_string())
     print(f"wrote {args.out}")
+
+
+def _allow(err, allow) -> str:
+    """An :class:`~breastcore.patient.ImplausibleMeasurements` message saying to run the values with ``allow``.
+
+    Its own message names the Python argument ``allow_implausible``, last.
+    """
+    text, key = str(err), "allow_implausible"
+    return text[:-len(key)] + allow if text.endswith(key) else f"{text} (run them with {allow})"
