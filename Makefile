@@ -18,8 +18,10 @@ $(BIN)/.installed: pyproject.toml
 run: $(BIN)/.installed          ## run the default scenes of config.yaml
 	$(BIN)/python -m breastcore.workflow_run --cores $(CORES) $(ARGS)
 
+# --dist loadfile: one worker runs each test file, so that a module-scoped fixture (the tiny
+# workflow of tests/test_workflow.py) is built once, not once per worker.
 test: $(BIN)/.installed         ## the unit suite (< 10 min on 2 cores)
-	$(BIN)/pytest -n $(CORES) --dist loadgroup -q
+	$(BIN)/pytest -n $(CORES) --dist loadfile -q
 
 test-slow: $(BIN)/.installed    ## long studies kept out of the unit suite
 	$(BIN)/pytest -q -m slow

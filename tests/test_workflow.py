@@ -14,10 +14,6 @@ import pytest
 import xarray as xr
 import yaml
 
-# One xdist worker runs the whole module (make test: --dist loadgroup), so that the
-# module-scoped tiny workflow is built once, not once per worker.
-pytestmark = pytest.mark.xdist_group("tiny_workflow")
-
 ROOT = Path(__file__).resolve().parents[1]
 SNAKEMAKE = str(Path(sys.executable).parent / "snakemake")
 
