@@ -34,7 +34,24 @@ class MeasurementWarning(UserWarning):
 
 
 class ImplausibleMeasurements(MeasurementError):
-    """Measurements that no shape of the model can produce (:func:`implausible`)."""
+    """Measurements that no shape of the model can produce (:func:`implausible`).
+
+    ``broken`` holds the broken rules (:func:`implausible`'s lines); :meth:`advice` words
+    them with the way to run the values anyway, named as the caller's user gives it (an
+    option, a config key). The message itself names the Python argument ``allow_implausible``.
+    """
+
+    def __init__(self, broken):
+        self.broken = tuple(broken)
+        super().__init__(self.advice("allow_implausible"))
+
+    def __reduce__(self):                                  # pickles (e.g. from a worker process) by its rules
+        return type(self), (self.broken,)
+
+    def advice(self, allow) -> str:
+        """The first broken rule, how many more, and to check them or run them flagged with ``allow``."""
+        more = f" (and {len(self.broken) - 1} more)" if len(self.broken) > 1 else ""
+        return f"{self.broken[0]}{more}; check the values, or run them flagged with {allow}"
 
 
 @dataclass(frozen=True, eq=False)
@@ -165,8 +182,7 @@ def _build(table, measurement_set, weights, allow_implausible=False) -> PatientM
                                  check_measurement_set(measurement_set), np.array(w))
     broken = implausible(result)
     if broken and not allow_implausible:
-        raise ImplausibleMeasurements(f"{broken[0]}" + (f" (and {len(broken) - 1} more)" if len(broken) > 1 else "")
-                                      + "; check the values, or run them flagged with allow_implausible")
+        raise ImplausibleMeasurements(broken)
     notes = [f"implausible, run as asked: {b}" for b in broken] + inconsistent(result)
     check_consistency(result)
     return dataclasses.replace(result, notes=tuple(notes))

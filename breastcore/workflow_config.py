@@ -439,10 +439,8 @@ def _patient_values(scene, where):
             warnings.simplefilter("ignore")
             patient_from_dict({"measurement_set": scene["measurement_set"], "units": scene["units"],
                                "postures": scene["postures"]}, allow_implausible=scene["allow_implausible"])
-    except ImplausibleMeasurements as err:              # it names the Python argument, last: name the key
-        text, allow = str(err), f"{where}.allow_implausible: true"
-        text = text[:-len("allow_implausible")] + allow if text.endswith("allow_implausible") else f"{text} ({allow})"
-        raise ConfigError(f"config key {where}.postures: {text}") from None
+    except ImplausibleMeasurements as err:              # its advice names the config key that runs the values
+        raise ConfigError(f"config key {where}.postures: {err.advice(f'{where}.allow_implausible: true')}") from None
     except MeasurementError as err:
         raise ConfigError(f"config key {where}.postures: {err}") from None
 

@@ -39,8 +39,8 @@ def run(args):
             with warnings.catch_warnings():     # Python's own line, with a source line: the notes say it below
                 warnings.simplefilter("ignore", MeasurementWarning)
                 target = load_patient(args.patient, args.measurement_set, args.allow_implausible)
-        except ImplausibleMeasurements as err:  # its advice names the Python argument: name the option
-            raise UsageError(f"--patient: {_allow(err, '--allow-implausible')}") from None
+        except ImplausibleMeasurements as err:  # its advice names the option that runs the values
+            raise UsageError(f"--patient: {err.advice('--allow-implausible')}") from None
         except MeasurementError as err:
             raise UsageError(f"--patient: {err}") from None
         ds = measurement_dataset(target, "patient")
@@ -61,11 +61,3 @@ def run(args):
     print(table.to_string())
     print(f"wrote {args.out}")
 
-
-def _allow(err, allow) -> str:
-    """An :class:`~breastcore.patient.ImplausibleMeasurements` message saying to run the values with ``allow``.
-
-    Its own message names the Python argument ``allow_implausible``, last.
-    """
-    text, key = str(err), "allow_implausible"
-    return text[:-len(key)] + allow if text.endswith(key) else f"{text} (run them with {allow})"
