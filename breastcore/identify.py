@@ -102,7 +102,7 @@ def identify(mm, target, initial, options=IdentificationOptions(), weights=None)
     """
     if getattr(mm, "warm_radius", options.warm_radius) != options.warm_radius:
         raise ValueError(f"the measurement model's warm_radius ({mm.warm_radius}) is not the options' "
-                         f"({options.warm_radius}): build it with ProblemSpec.measurement_model")
+                         f"({options.warm_radius}): build it with MeasurementModel.from_problem")
     target = np.asarray(target, float)
     w = np.ones_like(target) if weights is None else np.asarray(weights, float)
     informative = int(np.count_nonzero(w > 0))
