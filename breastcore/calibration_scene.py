@@ -172,7 +172,7 @@ def calibration_summary(spec, name, config_hash=None) -> xr.Dataset:
         "quantity_units": first["quantity_units"].variable, "parameter": first["parameter"].variable,
         "parameter_units": first["parameter_units"].variable,
         "criterion": _var(("criterion",), np.array(criteria), "1",
-                          "criterion of the rule: (a) min_det_F, (b) measurement_difference, (c) nonlinearity"),
+                          "criterion of the rule: " + ", ".join(f"{CRITERIA[k][0]} {k}" for k in criteria)),
     }
     data.update(_identification_variables(spec))
     ds = xr.Dataset(data, coords=coords)
@@ -384,7 +384,8 @@ def calibration_section(name, ds) -> str:
               _markdown(residual_table(ds)), "",
               f"Per c: the sliding margin c/(ρ g V/|Γ_B|) at the truth and its minimum over the admissible corners; "
               f"the worst check of each criterion and where ((a) min det F in {a['det_F_posture']} over every level "
-              f"and point; (b) max |M_{a['compare_level']}/M_{a['reference']} − 1| over the points; (c) the "
+              f"and point; (b) max |M_{a['compare_level']}/M_{a['reference']} − 1| over the points, and the part of it "
+              f"that the back's sliding adds (criterion (b): the same minus its value at the grid's largest c); (c) the "
               f"nonlinearity of the probe on {a['probe_level']}); the singular values of the relative Jacobian on "
               f"{a['jacobian_level']}; the mean parameter error (%) of the cross-mesh identifications "
               f"({float(a.get('identification_offset', np.nan)):.0%} off, truth on the reference level meshed by "
