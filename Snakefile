@@ -6,7 +6,7 @@ from snakemake.utils import min_version
 from breastcore.workflow_config import (check_config_files, check_overlays, config_errors_exit, drop_keys,
                                         validate_config)
 
-min_version("8.0")
+min_version("9.0")  # --replace-workflow-config (below, and in the advice of a refused copy)
 
 # Every config error is one line, "ConfigError: config ...", and exit status 1: without
 # config_errors_exit Snakemake would print the Snakefile line and the frames that raised it.
@@ -20,11 +20,11 @@ configfile: "config.yaml"
 with config_errors_exit():
     check_config_files(workflow.configfiles)
     # A --configfile copy that leaves out a key, a scene or a section of config.yaml would run
-    # config.yaml's. (Snakemake 8 has no --replace-workflow-config, added by
-    # snakemake/snakemake#3381: it always merges)
+    # config.yaml's. (--replace-workflow-config, which runs the files alone, came with
+    # Snakemake 9.0.0, snakemake/snakemake#3381; Snakemake 8 always merges)
     SCHEMA = os.path.join(workflow.basedir, "workflow/schemas/config.schema.yaml")
     drop_keys(config, check_overlays("config.yaml", workflow.config_settings.configfiles,
-                                     getattr(workflow.config_settings, "replace_workflow_config", False), SCHEMA))
+                                     workflow.config_settings.replace_workflow_config, SCHEMA))
     config.update(validate_config(config, SCHEMA))
 
 include: "workflow/rules/common.smk"
