@@ -14,10 +14,12 @@ least-squares estimate,
 .. math:: t_i = \frac{M_i(\hat\Lambda)/\bar M_i - 1}{\sigma},
 
 have :math:`T = \sum_i t_i^2 \sim \chi^2(n - p)` over the ``n`` measurements with weight
-> 0 and the ``p = 6`` parameters. The fit is *consistent* when ``T`` is at most the
-:data:`FIT_QUANTILE` quantile of that distribution, and a *misfit* above it: the model
-cannot reproduce the data within their noise, and the measurements of largest
-:math:`|t_i|` are named. With ``n = p`` nothing is left to test.
+> 0 and the ``p = 6`` parameters (:data:`~breastcore.parameters.IDENTIFIED`). The fit is
+*consistent* when ``T`` is at most the :data:`FIT_QUANTILE` quantile of that
+distribution, and a *misfit* above it: the model cannot reproduce the data within
+their noise, and the measurements of largest :math:`|t_i|` are named. With ``n = p`` nothing is left to test. A non-finite ``T``
+(a weighted measurement of ``M(Λ̂)`` NaN or infinite) is never consistent: it is a
+misfit when converged, whatever ``n − p``, and its non-finite :math:`t_i` are named first.
 
 Which parameters the measurements determine is :func:`breastcore.uncertainty.determined`.
 """
@@ -28,6 +30,8 @@ from dataclasses import dataclass
 
 import numpy as np
 from scipy.stats import chi2
+
+from .parameters import IDENTIFIED
 
 #: Quantile of χ²(n − p) above which a converged fit is a misfit.
 FIT_QUANTILE = 0.99
@@ -64,7 +68,7 @@ class FitVerdict:
     message: str
 
 
-def fit_verdict(converged, relative_error, weights, noise, labels, parameters=6) -> FitVerdict:
+def fit_verdict(converged, relative_error, weights, noise, labels, parameters=len(IDENTIFIED)) -> FitVerdict:
     """The verdict of an estimate whose measurements miss the data by ``relative_error`` (M/M̄ − 1).
 
     Parameters
@@ -77,6 +81,11 @@ def fit_verdict(converged, relative_error, weights, noise, labels, parameters=6)
         Relative 1σ noise of the uncertainty model.
     labels : sequence of str
         One name per measurement, in the order of ``relative_error.ravel()``.
+    parameters : int
+        ``p``, the number of identified parameters.
+
+    A converged fit is ``consistent`` only if ``T`` is finite and, when ``dof > 0``, at
+    most the threshold; otherwise (a NaN ``T`` too) it is a ``misfit``.
     """
     r = np.asarray(relative_error, float).ravel()
     w = np.asarray(weights, float).ravel()
@@ -85,15 +94,19 @@ def fit_verdict(converged, relative_error, weights, noise, labels, parameters=6)
     statistic = float(np.sum(t[used] ** 2))
     dof = int(used.sum()) - parameters
     threshold = float(chi2.ppf(FIT_QUANTILE, dof)) if dof > 0 else float("nan")
-    order = np.argsort(-np.abs(t))[:WORST_SHOWN]
-    worst = tuple((str(labels[i]), float(t[i])) for i in order if used[i])
-    named = ", ".join(f"{name} {100 * r[i]:+.3g} %" for (name, _), i in zip(worst, order))
+    size = np.where(np.isnan(t), np.inf, np.abs(t))                  # a NaN residual is the worst
+    tested = np.flatnonzero(used)                                       # names and residuals from the same indices
+    order = tested[np.argsort(-size[tested], kind="stable")][:WORST_SHOWN]
+    worst = tuple((str(labels[i]), float(t[i])) for i in order)
+    named = ", ".join(f"{labels[i]} {100 * r[i]:+.3g} %" for i in order)
     test = (f"T = Σ(r/σ)² = {statistic:.3g} against {threshold:.3g}, the {FIT_QUANTILE:.0%} quantile of "
-            f"χ²({dof}) for σ = {noise:g}" if dof > 0 else "no measurement beyond the six parameters to test")
+            f"χ²({dof}) for σ = {noise:g}" if dof > 0 else
+            f"T = Σ(r/σ)² = {statistic:.3g} is not finite" if not np.isfinite(statistic) else
+            "no measurement beyond the six parameters to test")
     if not converged:
         return FitVerdict("not_converged", statistic, threshold, dof, worst,
                           f"not converged; {test}; largest residuals {named}")
-    if dof > 0 and statistic > threshold:
+    if not np.isfinite(statistic) or (dof > 0 and not statistic <= threshold):
         return FitVerdict("misfit", statistic, threshold, dof, worst,
                           f"converged with a misfit: the model cannot reproduce the data within their noise "
                           f"({test}); worst measurements {named}")

@@ -54,6 +54,33 @@ def test_not_converged_and_untestable_fits_say_so():
     assert v.verdict == "consistent" and v.dof == 0 and "no measurement beyond the six" in v.message
 
 
+@pytest.mark.parametrize("weights", [np.ones(15), np.r_[np.ones(6), np.zeros(9)]])   # dof 9, and nothing to test
+@pytest.mark.parametrize("bad", [np.nan, np.inf])
+def test_a_non_finite_residual_is_never_consistent_and_is_named_first(weights, bad):
+    """A measurement of the estimate that is NaN made T NaN, which failed T > threshold: "consistent"."""
+    r = np.full(15, 0.01)
+    r[3] = bad
+    v = fit_verdict(True, r, weights, 0.10, LABELS)
+    assert v.verdict == "misfit" and not np.isfinite(v.statistic), v
+    assert v.worst[0][0] == LABELS[3] and f"worst measurements {LABELS[3]} {100 * bad:+.3g} %" in v.message, v.message
+    assert fit_verdict(False, r, weights, 0.10, LABELS).verdict == "not_converged"
+
+
+def test_the_named_residuals_are_those_of_the_named_measurements():
+    """A weight-0 measurement tied with tested ones (t = 0) in the ranking: the names were paired with
+    the residuals of other measurements (here bent45:volume with the untested 70 % of standing:volume)."""
+    r = np.zeros(15)
+    r[0], r[1], r[2] = 0.7, 0.05, -0.03                                 # standing volume untested, area, height
+    weights = np.ones(15)
+    weights[0] = 0
+    v = fit_verdict(False, r, weights, 0.10, LABELS)
+    assert [name for name, _ in v.worst] == ["standing:area", "standing:height", "standing:frontal_depth"], v.worst
+    for name, t in v.worst:
+        assert t == pytest.approx(r[LABELS.index(name)] / 0.10)
+        assert f"{name} {100 * r[LABELS.index(name)]:+.3g} %" in v.message, v.message
+    assert "+70 %" not in v.message, v.message
+
+
 def test_intervals_of_an_undetermined_parameter_are_marked_not_overflowed():
     """λ_s's interval read 4e-5 … 2.4e11 Pa; a parameter the data hardly move overflowed to [0, inf]."""
     rng = np.random.default_rng(0)
