@@ -16,7 +16,7 @@ from .targets import measure_solution
 
 
 def synthetic_summary(runs, paths, name, config_hash=None, tables=(), sensitivity=(), paper_table="none",
-                      truth=None, level_solutions=None, truth_mesh="reference") -> xr.Dataset:
+                      truth=None, level_solutions=None, *, truth_mesh) -> xr.Dataset:
     """One row per identification run: mesh, offset, errors, cost, iterations, time, success.
 
     ``tables`` names the extra results-page tables of the scene (``levels``,
@@ -29,8 +29,8 @@ def synthetic_summary(runs, paths, name, config_hash=None, tables=(), sensitivit
     solution at the same parameters on each level; with both, the summary carries
     ``discretisation_error(level, posture, quantity) = M_level/M_truth − 1``. The truth's
     parameters become the summary's ``parameters`` attribute. ``truth_mesh`` (attribute
-    of the same name) is the level the data were solved on, or ``"same"`` when each level
-    identifies data solved on itself.
+    of the same name, required: no default level) is the level the data were solved on, or
+    ``"same"`` when each level identifies data solved on itself.
     """
     rows = [open_dataset(p) for p in paths]
     rel = np.array([ds["relative_error"].values for ds in rows])

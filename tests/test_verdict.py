@@ -200,7 +200,7 @@ def test_the_error_table_counts_fit_verdicts_not_optimiser_exits(tmp_path):
     for (mesh, start), verdict in verdicts.items():
         runs.append({"mesh": mesh, "offset": 0.3, "start": start})
         paths.append(_identification(tmp_path / f"{mesh}{start}.nc", verdict, success=verdict != "not_converged"))
-    summary = synthetic_summary(runs, paths, "fake")
+    summary = synthetic_summary(runs, paths, "fake", truth_mesh="medium")
     assert list(summary["verdict"].values) == list(verdicts.values())
     assert list(summary["success"].values) == [1, 1, 1, 1, 1, 0]
     table = error_table(summary)

@@ -19,7 +19,7 @@ def main(snakemake):
                                    tables=spec.get("tables", []), sensitivity=spec.get("sensitivity", []),
                                    paper_table=spec.get("paper_table", "none"), truth=spec["truth"],
                                    level_solutions=spec.get("level_solutions"),
-                                   truth_mesh=spec.get("truth_mesh", "reference"))
+                                   truth_mesh=spec["truth_mesh"])
         else:
             source = spec["identification"] if spec["kind"] == "patient" else spec["solution"]
             ds = solution_summary(source, name, spec["kind"], spec_key(spec))
