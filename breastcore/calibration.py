@@ -113,6 +113,24 @@ def point_parameters(constants, point):
         return err
 
 
+def first_point(params, label):
+    """The first point's ``Parameters`` (the truth Λ̄, which a dataset's problem spec holds).
+
+    Raises the point's ParameterError, naming it, when it is not admissible: the
+    dataset's ``problem`` would otherwise hold some other Λ.
+    """
+    if isinstance(params[0], ParameterError):
+        raise ParameterError(f"the first point, {label}, is not admissible: {params[0]}") from params[0]
+    return params[0]
+
+
+def _stage_attrs(stage, base, model, postures, measurement_set, config_hash, **attrs) -> dict:
+    """Provenance of a ``stage`` dataset at the point ``base``, with the problem spec it was solved with."""
+    problem = ProblemSpec(parameters=base, solver=model.options, postures=tuple(postures),
+                          measurement_set=measurement_set)
+    return provenance(stage, base, config_hash, **attrs, **problem.attrs())
+
+
 def solve_set(model, points, postures, measurement_set, label=""):
     """Cold solves of every posture at every point (``Parameters`` or ``ParameterError``).
 
@@ -211,8 +229,15 @@ def level_points_dataset(model, level, labels, points, constants, postures, meas
         :data:`RECORDS`, over ``(point, posture, quantity)`` the measurements (NaN
         unless converged); ``relative_jacobian`` and ``singular_value`` at the first
         point (NaN unless every posture converged there).
+
+    Raises
+    ------
+    ParameterError
+        If the first point is not admissible (before any solve); other points that are
+        not are recorded as ``inadmissible``.
     """
     params = [point_parameters(constants, p) for p in points]
+    base = first_point(params, labels[0])
     solved = solve_set(model, params, postures, measurement_set, label=f"{level} c={constants['chassaignac']:g} Pa")
     rel = np.full((len(postures), len(QUANTITIES), len(IDENTIFIED)), np.nan)
     singular = np.full(len(IDENTIFIED), np.nan)
@@ -237,13 +262,10 @@ def level_points_dataset(model, level, labels, points, constants, postures, meas
     }
     coords = _coords(postures, {"point": _var(("point",), np.array(labels), "1", "point label (truth or box corner)")})
     ds = xr.Dataset(data, coords=coords)
-    base = params[0] if isinstance(params[0], Parameters) else Parameters(**constants)
-    problem = ProblemSpec(parameters=base, solver=model.options, postures=tuple(postures),
-                          measurement_set=measurement_set)
-    ds.attrs = provenance("calibrate", base, config_hash, mesh_level=level, chassaignac=float(constants["chassaignac"]),
-                          jacobian_point=labels[0],
-                          title="calibration of the Chassaignac coefficient: cold solves on one level for one c "
-                                "(mesh_level, chassaignac)", **problem.attrs())
+    ds.attrs = _stage_attrs("calibrate", base, model, postures, measurement_set, config_hash, mesh_level=level,
+                            chassaignac=float(constants["chassaignac"]), jacobian_point=labels[0],
+                            title="calibration of the Chassaignac coefficient: cold solves on one level for one c "
+                                  "(mesh_level, chassaignac)")
     return ds
 
 
@@ -307,6 +329,11 @@ def uniqueness_dataset(model, level, truth, constants, postures, measurement_set
         ``nonlinearity`` and ``first_difference`` (:func:`nonlinearity`). The
         threshold that calls a parameter "linear" is the scene's, applied by its
         summary, so that changing it reruns no solve.
+
+    Raises
+    ------
+    ParameterError
+        If Λ̄ is not admissible (before any solve).
     """
     values = np.array([truth[k] for k in IDENTIFIED], float)
     shifted = []
@@ -317,6 +344,7 @@ def uniqueness_dataset(model, level, truth, constants, postures, measurement_set
             shifted.append(dict(zip(IDENTIFIED, v.tolist())))
     points = [dict(zip(IDENTIFIED, values.tolist()))] + shifted
     params = [point_parameters(constants, p) for p in points]
+    base = first_point(params, "the truth")
     solved = solve_set(model, params, postures, measurement_set,
                        label=f"uniqueness {level} c={constants['chassaignac']:g} Pa")
     m = solved["measurement"].reshape(len(points), -1)                       # (point, 15)
@@ -345,12 +373,8 @@ def uniqueness_dataset(model, level, truth, constants, postures, measurement_set
     data["first_difference"] = _var(("parameter",), first, "1", "max_i |M_i(+) − M_i(−)| / (2 |M_i(0)|)")
     coords = _coords(postures, {"side": _var(("side",), np.array(SIDES), "1", "sign of the shift ±ε e_j")})
     ds = xr.Dataset(data, coords=coords)
-    base = params[0] if isinstance(params[0], Parameters) else Parameters(**constants)
-    problem = ProblemSpec(parameters=base, solver=model.options, postures=tuple(postures),
-                          measurement_set=measurement_set)
-    ds.attrs = provenance("uniqueness", base, config_hash, mesh_level=level, epsilon=float(epsilon),
-                          chassaignac=float(constants["chassaignac"]),
-                          title="uniqueness probe of M(Λ): cold solves at Λ̄ (1 ± ε e_j) on one level for one c "
-                                "(mesh_level, chassaignac, epsilon)",
-                          **problem.attrs())
+    ds.attrs = _stage_attrs("uniqueness", base, model, postures, measurement_set, config_hash, mesh_level=level,
+                            epsilon=float(epsilon), chassaignac=float(constants["chassaignac"]),
+                            title="uniqueness probe of M(Λ): cold solves at Λ̄ (1 ± ε e_j) on one level for one c "
+                                  "(mesh_level, chassaignac, epsilon)")
     return ds

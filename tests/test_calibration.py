@@ -179,6 +179,24 @@ def test_a_failed_solve_is_recorded_with_its_diagnostics_and_the_job_goes_on(mon
     assert np.isfinite(ds["singular_value"]).all() and ds["singular_value"].values[0] >= ds["singular_value"].values[-1]
 
 
+@pytest.mark.parametrize("job", ["calibrate", "uniqueness"])
+def test_an_inadmissible_first_point_is_refused_not_stored_as_the_default_parameters(job):
+    """The problem spec of the dataset held Parameters(**constants), the default Λ, not the point."""
+    from breastcore.calibration import level_points_dataset, uniqueness_dataset
+    from breastcore.forward import ForwardModel
+    from breastcore.mesh import mesh_level
+    from breastcore.parameters import IDENTIFIED, ParameterError
+    from breastcore.postures import parse_posture
+    truth = Parameters().as_dict()
+    bad = {**{k: truth[k] for k in IDENTIFIED}, "H": 2 * truth["R"]}        # H ≥ R: no cap
+    model, postures = ForwardModel(mesh_level("coarse")), [parse_posture("standing"), parse_posture("fours")]
+    with pytest.raises(ParameterError, match="first point, .*, is not admissible"):
+        if job == "calibrate":
+            level_points_dataset(model, "coarse", ["truth"], [bad], {"chassaignac": 300.0}, postures)
+        else:
+            uniqueness_dataset(model, "coarse", bad, {"chassaignac": 300.0}, postures)
+
+
 # -- config ---------------------------------------------------------------------------------
 def _scene_error(**changes):
     scene = {**copy.deepcopy(TINY_SCENE), **changes}
