@@ -257,18 +257,12 @@ def check_measurements(ds) -> None:
     """``dataset_file`` check of a measurement dataset: every value usable (finite, > 0), and at
     least as many measurements of weight > 0 as identified parameters (``identify`` refuses fewer
     at run time, after the mesh is built; here it is one line while the command is parsed)."""
-    import numpy as np
-
+    from .identify import too_few_weighted
     from .parameters import IDENTIFIED
     from .targets import target_from_dataset
-    weights = target_from_dataset(ds).weights
-    weighted = int(np.count_nonzero(weights > 0))
-    if weighted < len(IDENTIFIED):
-        why = "every weight is 0" if weighted == 0 else \
-            f"only {weighted} of {weights.size} measurements have weight > 0"
-        advice = ("measure at least two postures (5 measurements each)" if weights.shape[0] < 2 else
-                  "give weight > 0 to at least as many measurements as there are parameters")
-        raise ValueError(f"{why}: {weighted} measurements cannot determine {len(IDENTIFIED)} parameters; {advice}")
+    refusal = too_few_weighted(target_from_dataset(ds).weights, len(IDENTIFIED))
+    if refusal:
+        raise ValueError(refusal)
 
 
 def add_parameter_options(parser):

@@ -89,6 +89,19 @@ def relative_jacobian(mm, values, solutions, options):
     return mm.fd_jacobian(values, solutions, options.fd_step)
 
 
+def too_few_weighted(weights, parameters) -> str | None:
+    """Why the measurements of ``weights`` (posture, quantity) cannot determine ``parameters``
+    parameters, with what to do; None when at least ``parameters`` of them have weight > 0."""
+    weights = np.asarray(weights, float)
+    weighted = int(np.count_nonzero(weights > 0))
+    if weighted >= parameters:
+        return None
+    why = "every weight is 0" if weighted == 0 else f"only {weighted} of {weights.size} measurements have weight > 0"
+    advice = ("measure at least two postures (5 measurements each)" if weights.shape[0] < 2 else
+              "give weight > 0 to at least as many measurements as there are parameters")
+    return f"{why}: {weighted} measurements cannot determine {parameters} parameters; {advice}"
+
+
 def identify(mm, target, initial, options=IdentificationOptions(), weights=None) -> IdentificationResult:
     """Find Λ minimising ``E`` for the measurements ``target`` (posture, quantity), SI units.
 
@@ -105,12 +118,9 @@ def identify(mm, target, initial, options=IdentificationOptions(), weights=None)
                          f"({options.warm_radius}): build it with MeasurementModel.from_problem")
     target = np.asarray(target, float)
     w = np.ones_like(target) if weights is None else np.asarray(weights, float)
-    informative = int(np.count_nonzero(w > 0))
-    if informative < len(initial):
-        why = "every weight is 0" if informative == 0 else f"only {informative} of {w.size} measurements have weight > 0"
-        advice = ("measure at least two postures (5 measurements each)" if w.shape[0] < 2 else
-                  "give weight > 0 to at least as many measurements as there are parameters")
-        raise ValueError(f"{why}: {informative} measurements cannot determine {len(initial)} parameters; {advice}")
+    refusal = too_few_weighted(w, len(initial))
+    if refusal:
+        raise ValueError(refusal)
     sqrt_w = np.sqrt(w)
     result = IdentificationResult(False, "", np.asarray(initial, float))
     tic = time.perf_counter()
