@@ -14,6 +14,7 @@ from .datasets import open_dataset
 from .mesh import LEVEL_NODE_COUNTS
 from .parameters import IDENTIFIED
 from .scene import error_table, stability_table
+from .uncertainty import DETERMINED_FACTOR
 
 def _machine():
     cpu = "unknown CPU"
@@ -48,7 +49,8 @@ def synthetic_section(name, ds):
         lines += ["**95 % intervals** (linearised, under the identification's noise model): per mesh, the "
                   "fraction of runs whose interval contains the truth (coverage; 0.95 is the nominal value when "
                   "the data carry that noise), and the fraction in which the parameter is determined (interval "
-                  "within a factor 10; an undetermined parameter's interval is not reported and does not cover).",
+                  f"within a factor {DETERMINED_FACTOR:g}; an undetermined parameter's interval is not reported and "
+                  "does not cover).",
                   "", _markdown(coverage_table(ds), ".3g"), ""]
     key = ds.attrs.get("paper_table", "none")
     if key in paper.PARAMETER_TABLES:

@@ -13,6 +13,7 @@ from .parameters import IDENTIFIED, PARAMETER_INFO
 from .solution import DIAGNOSTICS
 from .verdict import VERDICTS
 from .targets import measure_solution
+from .uncertainty import DETERMINED_FACTOR
 
 
 def synthetic_summary(runs, paths, name, config_hash=None, tables=(), sensitivity=(), paper_table="none",
@@ -53,7 +54,7 @@ def synthetic_summary(runs, paths, name, config_hash=None, tables=(), sensitivit
         "verdict": _var(("run",), np.array([ds.attrs["verdict"] for ds in rows]), "1",
                         "fit verdict: consistent, misfit or not_converged (breastcore.verdict)"),
         "determined": _var(("run", "parameter"), np.array([ds["determined"].values for ds in rows]), "1",
-                           "1 if the parameter's 95 % interval spans at most a factor 10"),
+                           f"1 if the parameter's 95 % interval spans at most a factor {DETERMINED_FACTOR:g}"),
         "covered": _var(("run", "parameter"),
                         np.array([((ds["interval_low"] <= ds["truth"]) & (ds["truth"] <= ds["interval_high"])).values
                                   for ds in rows]).astype(np.int8), "1",

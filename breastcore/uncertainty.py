@@ -28,6 +28,13 @@ import numpy as np
 Z95 = 1.959963984540054
 #: A 95 % interval wider than this factor (high / low) marks its parameter as not determined.
 DETERMINED_FACTOR = 10.0
+#: What an undetermined parameter is called in logs and ``show``, before the parameters' names.
+UNDETERMINED = f"not determined by these measurements (95 % interval wider than a factor {DETERMINED_FACTOR:g})"
+
+
+def undetermined(parameters, determined_flags) -> list:
+    """The names of ``parameters`` whose ``determined`` flag (an identification's variable) is 0."""
+    return [str(p) for p, ok in zip(parameters, determined_flags) if not ok]
 
 
 def linearised_sensitivity(J, weights=None):

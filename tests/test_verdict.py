@@ -211,6 +211,20 @@ def test_the_error_table_counts_fit_verdicts_not_optimiser_exits(tmp_path):
             {v: expected.get(v, 0) for v in ("consistent", "misfit", "not_converged")}, row
 
 
+def test_show_and_the_job_log_name_the_undetermined_parameters_alike(tmp_path, caplog):
+    from breastcore.commands.browse import describe
+    from breastcore.datasets import open_dataset
+    from breastcore.stages.identify import log_verdict
+    ds = open_dataset(_identification(tmp_path / "id.nc", "consistent", True, determined=(1, 1, 0, 1, 0, 1)))
+    ds.attrs["message"] = "`gtol` termination condition is satisfied"          # the optimiser's, which the log names
+    expected = (f"not determined by these measurements (95 % interval wider than a factor {DETERMINED_FACTOR:g}): "
+                "lambda_breast, lambda_skin")
+    assert f"  {expected}" in describe(ds).splitlines()
+    with caplog.at_level("INFO", logger="breastcore"):
+        log_verdict(ds)
+    assert expected in [r.getMessage() for r in caplog.records], caplog.text
+
+
 def test_an_undetermined_parameter_is_marked_in_show_and_the_parameters_csv(tmp_path):
     import pandas as pd
 

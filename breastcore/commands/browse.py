@@ -96,10 +96,10 @@ def _worth(ds) -> list:
     if "verdict" in a:
         lines.append(f"  fit verdict: {a['verdict']}: {a.get('verdict_message', '')}")
     if "determined" in ds and "parameter" in ds["determined"].dims and ds["determined"].ndim == 1:
-        loose = [str(p) for p, ok in zip(ds["parameter"].values, ds["determined"].values) if not ok]
+        from ..uncertainty import UNDETERMINED, undetermined
+        loose = undetermined(ds["parameter"].values, ds["determined"].values)
         if loose:
-            lines.append(f"  not determined by these measurements (95 % interval wider than a factor 10): "
-                         f"{', '.join(loose)}")
+            lines.append(f"  {UNDETERMINED}: {', '.join(loose)}")
     if "sliding_margin" in ds and ds["sliding_margin"].ndim == 0:
         lines.append(f"  sliding margin c/(ρ g V/|Γ_B|): {float(ds['sliding_margin']):.4g}")
     if a.get("regime_warning"):

@@ -14,6 +14,7 @@ from ..observation import MeasurementModel
 from ..parameters import IDENTIFIED, Parameters
 from ..problem import ProblemSpec
 from ..targets import target_from_dataset, truth_from_dataset
+from ..uncertainty import UNDETERMINED, undetermined
 
 log = logging.getLogger(__name__)
 
@@ -47,7 +48,6 @@ def log_verdict(ds):
         log.warning("estimate: %s", ds.attrs["regime_warning"])
     for note in json.loads(ds.attrs.get("input_notes", "[]")):
         log.warning("patient input: %s", note)
-    loose = [str(p) for p, ok in zip(ds["parameter"].values, ds["determined"].values) if not ok]
+    loose = undetermined(ds["parameter"].values, ds["determined"].values)
     if loose:
-        log.warning("not determined by these measurements (95 %% interval wider than a factor 10): %s",
-                    ", ".join(loose))
+        log.warning("%s: %s", UNDETERMINED, ", ".join(loose))
