@@ -14,8 +14,10 @@ from pathlib import Path
 
 import xarray as xr
 
-STAGES = ("mesh", "solve", "measure", "identify", "sensitivity", "stability", "extreme", "calibrate", "uniqueness",
-          "scene")
+from . import STAGES as _COMPUTE_STAGES
+
+#: The stages documented, in the page's order: the compute stages, then the scene summaries.
+STAGES = (*_COMPUTE_STAGES, "scene")
 _ROW = re.compile(r"^\| `(?P<name>[^`]+)` (?:coordinate)? *\| \((?P<dims>[^)]*)\) \| `(?P<units>[^`]*)` \|")
 
 INTRO = """# Result datasets
