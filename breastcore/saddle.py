@@ -16,7 +16,7 @@ import logging
 import numpy as np
 import scipy.sparse.linalg as spla
 
-from .solver import Factorization, newton, shift_diagonal
+from .solver import Factorization, hessian_inertia, newton, shift_diagonal
 
 log = logging.getLogger(__name__)
 
@@ -195,7 +195,7 @@ def escape_saddle(problem, result, max_iterations=100, max_rounds=4, minimise=No
         iterations += result.iterations
         if result.success:
             K = problem.hessian(result.x)          # its inertia now, its eigenvectors next round
-            result = converged = _with(result, negative_pivots=Factorization(K, pattern).negative_pivots,
+            result = converged = _with(result, negative_pivots=hessian_inertia(problem, result.x, K),
                                        inertia_at_x=True)
     if not result.success:
         log.warning("saddle escape failed (%s); returning the equilibrium reached before it, a saddle with "

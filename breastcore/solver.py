@@ -81,13 +81,14 @@ class NewtonResult:
     inertia_at_x: bool = False
 
 
-def hessian_inertia(problem, z):
+def hessian_inertia(problem, z, K=None):
     """Negative eigenvalues of the exact free-dof Hessian at ``z`` (None without PARDISO's inertia).
 
-    One numeric factorisation (the pattern's symbolic analysis is reused).
+    One numeric factorisation (the pattern's symbolic analysis is reused). ``K``: that
+    Hessian, if the caller has already assembled it (``problem.hessian(z)`` otherwise).
     """
     try:
-        return Factorization(problem.hessian(z), getattr(problem, "pattern", None)).negative_pivots
+        return Factorization(problem.hessian(z) if K is None else K, getattr(problem, "pattern", None)).negative_pivots
     except (RuntimeError, ValueError, spla.MatrixRankWarning):     # singular: no inertia to report
         return None
 
