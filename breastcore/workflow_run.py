@@ -36,6 +36,8 @@ from .workflow_config import ConfigError, check_config_files
 #: Snakemake's lock files (``snakemake/persistence/file.py`` reads exactly these names).
 LOCK_NAME = re.compile(r"[0-9]+\.(input|output)\.lock")
 PROG = "breastcore.workflow_run"
+#: In the path of a ``script:`` job: ``python <folder>/.snakemake/scripts/tmpXXXX.name.py``.
+SCRIPTS = f"{os.sep}.snakemake{os.sep}scripts{os.sep}"
 
 
 def _option_values(argv, long, short=None, shortest=None, many=False):
@@ -97,8 +99,7 @@ def is_snakemake(argv) -> bool:
         return True
     if any(argv[i] == "-m" and argv[i + 1] == "snakemake" for i in range(1, min(len(argv) - 1, 4))):
         return True
-    scripts = f"{os.sep}.snakemake{os.sep}scripts{os.sep}"
-    return any(scripts in word for word in argv[1:3])
+    return any(SCRIPTS in word for word in argv[1:3])
 
 
 def is_job(argv) -> bool:
@@ -108,8 +109,7 @@ def is_job(argv) -> bool:
     Snakemake spawns as ``python -m snakemake --target-jobs ...``.
     """
     argv = list(argv)
-    scripts = f"{os.sep}.snakemake{os.sep}scripts{os.sep}"
-    return any(scripts in word for word in argv[1:3]) or "--target-jobs" in argv
+    return any(SCRIPTS in word for word in argv[1:3]) or "--target-jobs" in argv
 
 
 def _parent(proc, pid):
@@ -122,6 +122,7 @@ def _parent(proc, pid):
 
 
 def _command(proc, pid):
+    """The command line of ``pid`` from ``proc/PID/cmdline``, or None if it cannot be read."""
     try:
         return [w.decode(errors="replace") for w in (Path(proc) / str(pid) / "cmdline").read_bytes().split(b"\0")[:-1]]
     except OSError:
@@ -184,10 +185,12 @@ def snakemake_processes(workdir, proc="/proc"):
     for entry in root.iterdir():
         if not entry.name.isdigit() or int(entry.name) == os.getpid():
             continue
+        argv = _command(root, entry.name)
+        if argv is None:                                  # ended meanwhile
+            continue
         try:
-            argv = [w.decode(errors="replace") for w in (entry / "cmdline").read_bytes().split(b"\0")[:-1]]
             uid = entry.stat().st_uid
-        except OSError:                                   # ended meanwhile
+        except OSError:
             continue
         if not argv or not is_snakemake(argv):            # a zombie has no command line, and holds nothing
             continue
@@ -211,7 +214,7 @@ def snakemake_processes(workdir, proc="/proc"):
 POLL_SECONDS = 5.0
 
 
-def recover(workdir, proc="/proc", sleep=time.sleep, say=None):
+def recover(workdir, proc="/proc", sleep=time.sleep, say=None, cores=None):
     """Clear a killed run's lock in ``workdir`` when no Snakemake process works there.
 
     Parameters
@@ -225,6 +228,8 @@ def recover(workdir, proc="/proc", sleep=time.sleep, say=None):
         is waited for: it still writes an output that the rerun would write.
     say : callable, optional
         ``say(line)`` tells the user what is waited for (default: a line on stderr).
+    cores : str, optional
+        The run's ``--cores``, for the manual commands (``N`` where not given).
 
     Returns
     -------
@@ -255,7 +260,7 @@ def recover(workdir, proc="/proc", sleep=time.sleep, say=None):
     if live is None and locks:
         return [], (f"{PROG}: cannot list processes here (no {proc}), so the lock in {workdir}/.snakemake/locks "
                     f"is left alone; if no Snakemake runs there: snakemake --unlock, then "
-                    f"snakemake --cores 2 --rerun-incomplete")
+                    f"snakemake --cores {cores or 'N'} --rerun-incomplete")
     # No live process: the lock files are a killed run's. Only those listed before the
     # process scan are removed, so a run started since keeps its own (Snakemake numbers a
     # new run's files past the existing ones). Without /proc but also without lock files,
@@ -304,7 +309,8 @@ def main(argv=None) -> int:
     except ConfigError as err:
         print(f"ConfigError: {err}", file=sys.stderr)
         return 1
-    extra, note = recover(snakemake_directory(argv, os.getcwd()))
+    cores = _option_values(argv, "--cores", "-c")
+    extra, note = recover(snakemake_directory(argv, os.getcwd()), cores=cores[-1] if cores else None)
     if note:
         print(note, file=sys.stderr, flush=True)
     if any(word in ("--rerun-incomplete", "--ri") for word in argv):

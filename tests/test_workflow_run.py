@@ -181,6 +181,14 @@ def test_without_a_process_list_the_lock_is_left_and_the_manual_commands_are_nam
     assert extra == ["--rerun-incomplete"] and note is None
 
 
+@pytest.mark.parametrize("cores, shown", [("4", "--cores 4"), (None, "--cores N")])
+def test_the_manual_commands_name_the_runs_own_cores(tmp_path, cores, shown):
+    """They said --cores 2 whatever the run was given."""
+    workdir = _locked(tmp_path / "work")
+    extra, note = recover(workdir, proc=str(tmp_path / "no-proc"), cores=cores)
+    assert extra == [] and note.endswith(f"then snakemake {shown} --rerun-incomplete"), note
+
+
 def _wait_for(condition, process, timeout=300):
     start = time.monotonic()
     while not condition():
