@@ -29,6 +29,7 @@ def identification_dataset(result, mm, target, problem, *, initial, truth=None, 
     problem.check_model(mm)
     options = problem.identification
     estimate = np.asarray(result.estimate, float)
+    params = mm.params(estimate)                           # Λ̂ with the problem's constants
     J = result.jacobian.reshape(-1, len(IDENTIFIED))
     weights = np.asarray(target.weights, float).ravel()
     cov_log = log_covariance(J, options.noise, weights)
@@ -60,7 +61,7 @@ def identification_dataset(result, mm, target, problem, *, initial, truth=None, 
         "determined": _var(("parameter",), determined(cov_log).astype(np.int8), "1",
                            f"1 if the 95 % interval spans at most a factor {DETERMINED_FACTOR:g}; 0: not determined "
                            "by these measurements"),
-        "sliding_margin": _var((), sliding_margin(mm.params(estimate)), "1",
+        "sliding_margin": _var((), sliding_margin(params), "1",
                                f"c / (ρ g V/|Γ_B|) at the estimate; below {REGIME_MARGIN:g} the standing breast "
                                "slides (outside the mesh-converged regime)"),
         "standardised_residual": _var(("posture", "quantity"), np.asarray(result.measurement_error[-1]) / options.noise,
@@ -82,7 +83,6 @@ def identification_dataset(result, mm, target, problem, *, initial, truth=None, 
         data["truth"] = _var(("parameter",), np.asarray(truth, float), _PARAM_UNITS, "generating parameters")
         data["relative_error"] = _var(("parameter",), estimate / np.asarray(truth, float) - 1.0, "1",
                                       "estimate / truth − 1")
-    params = mm.params(estimate)
     shown = refold(mm.model.map.mesh_at(params.R, params.H), params.fold_angle)
     data.update(mesh_variables(shown))
     data["model_reference_position"] = _var(("node", "xyz"), mm.model.mesh.nodes, "m",
@@ -108,7 +108,7 @@ def identification_dataset(result, mm, target, problem, *, initial, truth=None, 
                           iterations=result.iterations, verdict=verdict.verdict, verdict_message=verdict.message,
                           fit_statistic=verdict.statistic, fit_threshold=verdict.threshold, fit_dof=verdict.dof,
                           worst_measurements=[name for name, _ in verdict.worst], input_notes=list(target.notes),
-                          regime_warning=regime_warning(mm.params(estimate)),
+                          regime_warning=regime_warning(params),
                           model_mesh={"R": mm.model.mesh.R, "H": mm.model.mesh.H},
                           title="breastcore parameter identification", **problem.attrs())
     return ds
