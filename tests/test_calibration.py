@@ -264,12 +264,13 @@ def test_the_calibration_config_plans_its_scene_and_nothing_else(tmp_path):
 
 
 def _merged(*files):
-    """config.yaml with the opt-in files merged in, validated, as the Snakefile does."""
+    """config.yaml with the opt-in files merged in (Snakemake's deep merge), checked, nulls dropped and
+    validated, as the Snakefile does."""
+    from breastcore.workflow_config import _merge, check_overlays, drop_keys
     config = yaml.safe_load((ROOT / "config.yaml").read_text())
     for name in files:
-        extra = yaml.safe_load((ROOT / name).read_text())
-        config["scenes"].update(extra.pop("scenes"))
-        config.update(extra)
+        config = _merge(config, yaml.safe_load((ROOT / name).read_text()))
+    drop_keys(config, check_overlays(ROOT / "config.yaml", [ROOT / name for name in files], False, SCHEMA))
     return validate_config(config, SCHEMA)
 
 

@@ -437,4 +437,3 @@ def test_bad_input_end_to_end(case, files, tmp_path):
     lines = out.stderr.strip().splitlines()
     assert out.returncode == 2 and len(lines) == 1 and "Traceback" not in out.stderr, out.stderr
     assert all(w in lines[0] for w in words), lines[0]
-    print(f"{case} -> {out.returncode} -> {lines[0]}")
