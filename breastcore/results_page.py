@@ -325,9 +325,11 @@ def render(summaries, commands):
              f"- Date: {datetime.date.today().isoformat()}",
              "- Commands: " + "; ".join(f"`{c}`" for c in commands), "",
              "Where our numbers differ from the paper's: ρ, c, t_s, δ and the measurement formulas are the "
-             "spec's defaults, not the paper's (which does not give them); at the paper's Λ̄ the standing posture "
-             "is an extreme deformation that is not mesh-converged at these mesh sizes, so identification across "
-             "meshes (truth on a finer mesh) carries a large discretisation gap; see docs/benchmarks.md.", ""]
+             "spec's defaults, not the paper's (which does not give them); c comes from the calibration scene "
+             "(docs/results-calibration.md). Below the slip threshold ρ g V/|Γ_B| (311 Pa at the paper's Λ̄; "
+             "c = 100 Pa, the first guess, is below it) the standing breast slides down the back and crushes "
+             "against the fold, its shape is not mesh-converged at these mesh sizes, and identification across "
+             "meshes (truth on a finer mesh) carries a large discretisation gap.", ""]
     for name, path in summaries.items():
         ds = open_dataset(path)
         kind = ds.attrs.get("scene_kind")

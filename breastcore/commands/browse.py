@@ -19,6 +19,11 @@ _KEY_NUMBERS = {
     "scene": ["mean_abs_error", "verdict", "wall_time", "nipple_displacement", "estimate", "interval_low",
               "interval_high", "determined"],
 }
+#: Key numbers of scene summaries whose kind has its own (the others use the "scene" list).
+_SCENE_KEY_NUMBERS = {
+    "calibration": ["table2_residual", "paper_table2_residual", "passed", "measurement_difference",
+                    "sliding_difference", "identification_error"],
+}
 
 
 def register(sub):
@@ -36,6 +41,9 @@ def _labels(ds, dim, limit=40, exclude=()):
     a verdict); None for numeric or long dimensions."""
     if not 0 < ds.sizes[dim] <= limit:
         return None
+    if dim in ds.coords and ds[dim].dtype.kind in "fi":          # e.g. c in Pa: its values name the entries
+        units = ds[dim].attrs.get("units", "")
+        return [f"{v:g}" + (f" {units}" if units not in ("", "1") else "") for v in ds[dim].values]
     columns = [ds[name].values for name in ds.variables
                if ds[name].dims == (dim,) and ds[name].dtype.kind in "UOS" and name not in exclude
                and not str(ds[name].values[0]).endswith(".nc")]          # file paths name nothing
@@ -66,13 +74,14 @@ def describe(ds) -> str:
             units = f" {PARAMETER_INFO[k].units}" if k in PARAMETER_INFO else ""
             return f"{k}={v:.6g}{units}" if isinstance(v, (int, float)) else f"{k}={v}"
         lines.append("  parameters: " + ", ".join(shown(k, v) for k, v in params.items()))
-    for name in _KEY_NUMBERS.get(a.get("stage"), []):
+    keys = _SCENE_KEY_NUMBERS.get(a.get("scene_kind")) or _KEY_NUMBERS.get(a.get("stage"), [])
+    for name in keys:
         if name in ds:
             var = ds[name]
             lines.append(f"  {name} [{var.attrs.get('units', '')}] ({var.attrs.get('long_name', '')})"
                          + (f", by {' x '.join(var.dims)}" if var.dims else "") + ":")
             for dim in var.dims:
-                labels = _labels(ds, dim, exclude=_KEY_NUMBERS.get(a.get("stage"), []))
+                labels = _labels(ds, dim, exclude=keys)
                 if labels:
                     lines.append(f"      {dim}: {', '.join(labels)}")
             values = np.array2string(np.asarray(var.values), threshold=200, max_line_width=100,
@@ -82,7 +91,7 @@ def describe(ds) -> str:
     if "success" in a:                          # the optimiser's flag: what the estimate is worth is the verdict
         lines.append(f"  optimiser stopping test met: {'yes' if int(a['success']) else 'no'}")
     for key in ("message", "mesh_level", "solver", "method", "measurement_set", "outcome_counts",
-                "guess_outcome_counts", "scene", "source"):
+                "guess_outcome_counts", "scene", "source", "choice", "rule"):
         if key in a:
             lines.append(f"  {key}: {a[key]}")
     lines.append(f"  provenance: breastcore {a.get('breastcore_version')} (source {a.get('source_hash')}), "
