@@ -38,7 +38,8 @@ PARAMETER_INFO = {
     "skin_thickness": ParameterInfo("m", "skin thickness t_s (membrane stiffness = modulus × t_s)", 1e-3, "spec §2", "--skin-thickness"),
     "density": ParameterInfo("kg m-3", "bulk density ρ", 1000.0, "spec §2", "--density"),
     "gravity_magnitude": ParameterInfo("m s-2", "gravitational acceleration g", 9.81, "spec §2", "--gravity"),
-    "chassaignac": ParameterInfo("Pa", "Chassaignac sliding coefficient c", 100.0, "spec §2", "--chassaignac"),
+    "chassaignac": ParameterInfo("Pa", "Chassaignac sliding coefficient c", 500.0,
+                                 "calibration (config/calibration.yaml; spec §2)", "--chassaignac"),
     "smoothing": ParameterInfo("m", "Chassaignac smoothing length δ", 1e-6, "spec §2", "--smoothing"),
     "fold_angle": ParameterInfo("degree", "arc angle θ_D of the fixed infra-mammary fold", 180.0, "spec §1", "--fold-angle"),
 }
