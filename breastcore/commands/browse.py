@@ -41,7 +41,7 @@ def _labels(ds, dim, limit=40, exclude=()):
     a verdict); None for numeric or long dimensions."""
     if not 0 < ds.sizes[dim] <= limit:
         return None
-    if dim in ds.coords and ds[dim].dtype.kind in "fi":          # e.g. c in Pa: its values name the entries
+    if dim in ds.coords and ds[dim].ndim == 1 and ds[dim].dtype.kind in "fi":   # e.g. c in Pa: values name entries
         units = ds[dim].attrs.get("units", "")
         return [f"{v:g}" + (f" {units}" if units not in ("", "1") else "") for v in ds[dim].values]
     columns = [ds[name].values for name in ds.variables
