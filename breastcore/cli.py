@@ -339,6 +339,9 @@ def main(argv=None) -> int:
         return 2
     except KeyboardInterrupt:
         return 130
+    except BrokenPipeError:   # `breastcore show x.nc | head`: the reader left, as it may from any filter
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())   # no second error at exit
+        return 141
     except Exception as err:  # a failed solve or identification: one line, diagnostics included
         if args.verbose:
             raise

@@ -437,3 +437,12 @@ def test_bad_input_end_to_end(case, files, tmp_path):
     lines = out.stderr.strip().splitlines()
     assert out.returncode == 2 and len(lines) == 1 and "Traceback" not in out.stderr, out.stderr
     assert all(w in lines[0] for w in words), lines[0]
+
+
+def test_show_into_a_pipe_that_closes_early_prints_no_error(files):
+    """`breastcore show x.nc | head -1`: the reader leaves after one line; show says nothing of it."""
+    proc = subprocess.Popen([sys.executable, "-m", "breastcore", "show", files["mesh"]], stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True)
+    assert proc.stdout.readline()
+    proc.stdout.close()
+    assert proc.stderr.read() == "" and proc.wait() in (0, 141)
