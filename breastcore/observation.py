@@ -19,11 +19,11 @@ from .measure import QUANTITIES, measure
 from .parameters import IDENTIFIED, Parameters
 
 
-#: The energy term and Lamé attribute that each material parameter scales.
 #: Largest step of the R, H differences of the implicit Jacobian, per Chassaignac smoothing length δ:
 #: the sticking back nodes' gradient bends on the length δ (see implicit_jacobian).
 GEOMETRY_STEP_PER_SMOOTHING = 1e-3
 
+#: The energy term and Lamé attribute that each material parameter scales.
 _MODULI = {"lambda_breast": (BulkNeoHookean, "lam"), "mu_breast": (BulkNeoHookean, "mu"),
            "lambda_skin": (SkinMembrane, "lam"), "mu_skin": (SkinMembrane, "mu")}
 
@@ -156,8 +156,7 @@ class MeasurementModel:
         order), with step ``h = min(rel_step·|p|, GEOMETRY_STEP_PER_SMOOTHING·δ)``:
         the smoothed Chassaignac gradient ``c u/√(|u|² + δ²)`` of a back node that
         sticks (``|u| ≲ δ``) bends on the length δ, so the difference's truncation
-        error is ``O((h/δ)²)`` there (with ``h = 1e-6 R`` and δ = 1e-6 m it put a
-        1e-4 relative error into ``∂M/∂R`` at c = 500 Pa). ``∂M/∂x·dx/dp`` is a
+        error is ``O((h/δ)²)`` there (docs/identification.md). ``∂M/∂x·dx/dp`` is a
         central directional difference of the measurement functions, which are
         smooth by construction.
         """
