@@ -14,9 +14,9 @@ $(BIN)/.installed: pyproject.toml
 	touch $@
 
 # snakemake --cores 2, after clearing what a killed run left (its lock, its unfinished jobs):
-# see breastcore/workflow_run.py. More Snakemake arguments: make run ARGS="--configfile my.yaml".
+# see breastcore/pipeline/run.py. More Snakemake arguments: make run ARGS="--configfile my.yaml".
 run: $(BIN)/.installed          ## run the default scenes of config.yaml
-	$(BIN)/python -m breastcore.workflow_run --cores $(CORES) $(ARGS)
+	$(BIN)/python -m breastcore.pipeline.run --cores $(CORES) $(ARGS)
 
 # --dist loadfile: one worker runs each test file, so that a module-scoped fixture (the tiny
 # workflow of tests/test_workflow.py) is built once, not once per worker.

@@ -3,8 +3,9 @@ import os
 
 from snakemake.utils import min_version
 
-from breastcore.workflow_config import (check_config_files, check_overlays, config_errors_exit, drop_keys,
-                                        validate_config)
+from breastcore.pipeline.config import validate_config
+from breastcore.pipeline.config_files import check_config_files
+from breastcore.pipeline.overlays import check_overlays, config_errors_exit, drop_keys
 
 min_version("9.0")  # --replace-workflow-config (below, and in the advice of a refused copy)
 

@@ -1,8 +1,8 @@
 """Helpers shared by the identification study and benchmark (issue #3).
 
 Everything here is deterministic: fixed seeds, fixed starts. A run gets a fresh
-:class:`~breastcore.observation.MeasurementModel` (sharing the level's
-:class:`~breastcore.forward.ForwardModel`), so warm starts and the solve counter
+:class:`~breastcore.inverse.operator.MeasurementModel` (sharing the level's
+:class:`~breastcore.forward.model.ForwardModel`), so warm starts and the solve counter
 never leak from one run into the next.
 """
 
@@ -14,13 +14,15 @@ import time
 
 import numpy as np
 
-from breastcore.forward import ForwardModel, SolverOptions
-from breastcore.identify import IdentificationOptions, identify
-from breastcore.mesh import LEVEL_MESH_SIZE, mesh_cap, mesh_level
-from breastcore.observation import MeasurementModel
-from breastcore.parameters import IDENTIFIED, Parameters
-from breastcore.postures import paper_postures
-from breastcore.uncertainty import intervals, log_covariance
+from breastcore.forward.model import ForwardModel
+from breastcore.forward.options import SolverOptions
+from breastcore.inverse.identify import identify
+from breastcore.inverse.operator import MeasurementModel
+from breastcore.inverse.options import IdentificationOptions
+from breastcore.inverse.uncertainty import intervals, log_covariance
+from breastcore.model.mesh import LEVEL_MESH_SIZE, mesh_cap, mesh_level
+from breastcore.model.parameters import IDENTIFIED, Parameters
+from breastcore.model.postures import paper_postures
 
 #: The paper's reference Λ̄ (SI).
 TRUTH = np.array(Parameters().identified())

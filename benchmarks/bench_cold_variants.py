@@ -7,7 +7,7 @@ Usage::
 
 Five parameter points (Λ̄ and four uniform draws within ±40 %, seed 0) are solved
 cold in each paper posture, on the gmsh mesh of ``--level``
-(:func:`breastcore.mesh.mesh_level`, the mesh the workflow writes to
+(:func:`breastcore.model.mesh.mesh_level`, the mesh the workflow writes to
 ``results/mesh/<level>.nc``, node for node; built here, so no workflow run is needed).
 ``--quick`` runs the coarse level instead, unless
 ``--level`` is given. Variants:
@@ -38,12 +38,15 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from benchmarks._common import header, print_table  # noqa: E402
-import breastcore.forward as forward  # noqa: E402
-from breastcore.measure import measure  # noqa: E402
-from breastcore.mesh import mesh_level  # noqa: E402
-from breastcore.parameters import IDENTIFIED, Parameters  # noqa: E402
-from breastcore.postures import paper_postures  # noqa: E402
-from breastcore.solver import newton  # noqa: E402
+
+import breastcore.forward.continuation as continuation  # noqa: E402
+from breastcore.forward.model import ForwardModel  # noqa: E402
+from breastcore.forward.options import SolverOptions  # noqa: E402
+from breastcore.inverse.measurements import measure  # noqa: E402
+from breastcore.model.mesh import mesh_level  # noqa: E402
+from breastcore.model.parameters import IDENTIFIED, Parameters  # noqa: E402
+from breastcore.model.postures import paper_postures  # noqa: E402
+from breastcore.nonlinear.newton import newton  # noqa: E402
 
 VARIANTS = {
     "default": ({}, newton),
@@ -79,8 +82,8 @@ def main(argv=None):
     try:
         for name in ["default"] + [v for v in args.variants.split(",") if v != "default"]:
             options, minimiser = VARIANTS[name]
-            forward.newton = minimiser                          # solve_posture's Newton for this variant
-            model = forward.ForwardModel(mesh, forward.SolverOptions(**options))
+            continuation.newton = minimiser                          # solve_posture's Newton for this variant
+            model = ForwardModel(mesh, SolverOptions(**options))
             for posture in paper_postures():
                 iterations, seconds, change, gaps = [], 0.0, 0.0, []
                 for i, values in enumerate(points):
@@ -96,7 +99,7 @@ def main(argv=None):
                 rows.append([name, posture.name, " ".join(map(str, iterations)), f"{seconds:.2f}", f"{change:.1e}",
                              f"{min(gaps):.1e} … {max(gaps):.1e}"])
     finally:
-        forward.newton = newton
+        continuation.newton = newton
     print_table(["variant", "posture", "Newton iterations (5 points)", "time (s)", "max ΔM", "ΔE range"], rows,
                 f"Cold solves on {args.level}")
 

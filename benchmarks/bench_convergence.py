@@ -38,10 +38,10 @@ def deformed_volume(problem, x):
 
 
 def solve_level(level, postures):
-    from breastcore.forward import ForwardModel
-    from breastcore.geometry import cap_volume
-    from breastcore.mesh import mesh_level
-    from breastcore.parameters import Parameters
+    from breastcore.forward.model import ForwardModel
+    from breastcore.model.geometry import cap_volume
+    from breastcore.model.mesh import mesh_level
+    from breastcore.model.parameters import Parameters
     mesh = mesh_level(level)
     model, params = ForwardModel(mesh), Parameters()
     nipple = mesh.landmarks["nipple"]
@@ -79,7 +79,7 @@ def parse_args(argv=None):
 def main(argv=None):
     args = parse_args(argv)
     header("Mesh convergence", [sys.argv[0]] + (argv if argv is not None else sys.argv[1:]))
-    from breastcore.postures import paper_postures
+    from breastcore.model.postures import paper_postures
     levels = [lv for lv in args.levels if not (args.quick and lv == "fine10k")]
     postures = paper_postures()
     data = {level: solve_level(level, postures) for level in levels}

@@ -9,11 +9,11 @@ For each mesh level, with ``BREASTCORE_PARDISO_THREADS`` as set (the fine50k tar
 uses 2), medians of ``--repeats``:
 
 - ``pattern``: ``ForwardModel.assembler`` on a new model, i.e. building
-  :class:`~breastcore.assembly.FreeDofAssembler` (the free-dof CSR pattern and the
+  :class:`~breastcore.fem.assembly.FreeDofAssembler` (the free-dof CSR pattern and the
   position of every element-block entry), part of every cold solve;
 - ``double``: one PARDISO numeric factorisation and solve in double precision;
 - ``mixed``: the single-precision factorisation and a solve refined in double to
-  ``‖b − Kx‖ ≤ 1e-10 ‖b‖`` (:class:`~breastcore.solver.Factorization` with ``mixed=True``),
+  ``‖b − Kx‖ ≤ 1e-10 ‖b‖`` (:class:`~breastcore.linalg.factorization.Factorization` with ``mixed=True``),
   with the refinement steps it took.
 
 ``--quick`` leaves out fine50k, unless ``--levels`` is given.
@@ -35,11 +35,12 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from benchmarks._common import header, print_table, timed  # noqa: E402
-from breastcore import solver  # noqa: E402
-from breastcore.forward import ForwardModel  # noqa: E402
-from breastcore.mesh import mesh_level  # noqa: E402
-from breastcore.parameters import Parameters  # noqa: E402
-from breastcore.postures import parse_posture  # noqa: E402
+
+from breastcore.forward.model import ForwardModel  # noqa: E402
+from breastcore.linalg import factorization as solver  # noqa: E402
+from breastcore.model.mesh import mesh_level  # noqa: E402
+from breastcore.model.parameters import Parameters  # noqa: E402
+from breastcore.model.postures import parse_posture  # noqa: E402
 
 
 def level_row(level, repeats):

@@ -1,7 +1,7 @@
 """Forward-solve timings (issue #2): Newton against the CG baseline, the ultra-thin
 and fine50k targets, and the growth of the time with the node count.
 
-"Cold" means a new :class:`~breastcore.forward.ForwardModel` (cap map, sparsity
+"Cold" means a new :class:`~breastcore.forward.model.ForwardModel` (cap map, sparsity
 pattern, PARDISO analysis) and a solve from the gravity-free shape; the gmsh
 mesh is generated before the clock starts (it is cached per level). Every Newton
 time is the median of ``--repeats`` runs in this process. CG runs in a child
@@ -35,10 +35,12 @@ TARGETS = {"cold3": 5.0, "warm": 0.5, "ratio": 30.0, "fine_time": 120.0, "fine_m
 
 _CHILD = """
 import json, time
-from breastcore.forward import ForwardModel, SolverOptions, SolveError
-from breastcore.mesh import mesh_level
-from breastcore.parameters import Parameters
-from breastcore.postures import parse_posture
+from breastcore.forward.model import ForwardModel
+from breastcore.forward.options import SolverOptions
+from breastcore.forward.records import SolveError
+from breastcore.model.mesh import mesh_level
+from breastcore.model.parameters import Parameters
+from breastcore.model.postures import parse_posture
 tic = time.perf_counter()
 mesh = mesh_level({level!r})
 mesh_time = time.perf_counter() - tic
@@ -60,17 +62,17 @@ def child_solve(level, posture, method, cap):
 
 
 def newton_cold(level, posture, repeats):
-    from breastcore.forward import ForwardModel
-    from breastcore.mesh import mesh_level
-    from breastcore.parameters import Parameters
-    from breastcore.postures import parse_posture
+    from breastcore.forward.model import ForwardModel
+    from breastcore.model.mesh import mesh_level
+    from breastcore.model.parameters import Parameters
+    from breastcore.model.postures import parse_posture
     mesh, params, post = mesh_level(level), Parameters(), parse_posture(posture)
     median, times, sol = timed(lambda: ForwardModel(mesh).solve(params, post), repeats)
     return median, times, sol
 
 
 def cold_table(levels, postures, repeats, cg_levels, cg_cap, cg_repeats):
-    from breastcore.mesh import mesh_level
+    from breastcore.model.mesh import mesh_level
     rows, per_level = [], {}
     for level in levels:
         nodes = len(mesh_level(level).nodes)
@@ -109,10 +111,10 @@ def cold_table(levels, postures, repeats, cg_levels, cg_cap, cg_repeats):
 
 def parallel_cold(level, repeats):
     """Median time of the three postures solved cold in 2 forked processes (None if not available)."""
-    from breastcore.forward import ForwardModel
-    from breastcore.mesh import mesh_level
-    from breastcore.parameters import Parameters
-    from breastcore.postures import paper_postures
+    from breastcore.forward.model import ForwardModel
+    from breastcore.model.mesh import mesh_level
+    from breastcore.model.parameters import Parameters
+    from breastcore.model.postures import paper_postures
     if not hasattr(ForwardModel, "solve_postures"):
         return None
     mesh = mesh_level(level)
@@ -121,10 +123,10 @@ def parallel_cold(level, repeats):
 
 def warm_times(level, repeats):
     """Warm re-solve after a 1 % increase of all six identified parameters, per posture."""
-    from breastcore.forward import ForwardModel
-    from breastcore.mesh import mesh_level
-    from breastcore.parameters import Parameters
-    from breastcore.postures import paper_postures
+    from breastcore.forward.model import ForwardModel
+    from breastcore.model.mesh import mesh_level
+    from breastcore.model.parameters import Parameters
+    from breastcore.model.postures import paper_postures
     model, params = ForwardModel(mesh_level(level)), Parameters()
     changed = params.with_identified([v * 1.01 for v in params.identified()])
     out = {}

@@ -34,8 +34,17 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from benchmarks._common import RESULTS, header, print_table, run_python, timed, verdict  # noqa: E402
-from benchmarks._ident import (PAPER_TIME, STARTS_30, TRUTH, child_code, forward_model,  # noqa: E402
-                               measurement_model, options, run, truth_measurements)
+from benchmarks._ident import (  # noqa: E402
+    PAPER_TIME,
+    STARTS_30,
+    TRUTH,
+    child_code,
+    forward_model,
+    measurement_model,
+    options,
+    run,
+    truth_measurements,
+)
 
 TARGET_TIME = {"coarse": 3.0, "ultra-thin": 30.0}        # s, issue #3
 

@@ -6,7 +6,7 @@ Usage::
     python benchmarks/bench_inertia.py --quick     # coarse and medium, medians of 3 (``make bench``)
 
 Each cold solve of the paper's Λ̄, per posture and level, is timed twice in one run:
-``checked``, the solver as it is (:func:`breastcore.forward._settle` factorises the exact
+``checked``, the solver as it is (:func:`breastcore.forward.model._settle` factorises the exact
 Hessian at the returned position unless the saddle escape did); and ``unchecked``, with
 that factorisation replaced by Newton's own inertia from the iterate before its last step
 (what solves recorded before 2026-12-01). Medians of ``--repeats``; the ratio is what the
@@ -26,10 +26,12 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from benchmarks._common import header, print_table, timed  # noqa: E402
-from breastcore import forward  # noqa: E402
-from breastcore.mesh import mesh_level  # noqa: E402
-from breastcore.parameters import Parameters  # noqa: E402
-from breastcore.postures import paper_postures  # noqa: E402
+
+from breastcore.forward import continuation  # noqa: E402
+from breastcore.forward.model import ForwardModel  # noqa: E402
+from breastcore.model.mesh import mesh_level  # noqa: E402
+from breastcore.model.parameters import Parameters  # noqa: E402
+from breastcore.model.postures import paper_postures  # noqa: E402
 
 
 def parse_args(argv=None):
@@ -51,10 +53,10 @@ def main(argv=None):
     rows = []
     stale = lambda problem, z: None                               # noqa: E731 — Newton's own count is kept
     for level in args.levels.split(","):
-        model = forward.ForwardModel(mesh_level(level))
+        model = ForwardModel(mesh_level(level))
         for posture in paper_postures():
             checked, _, a = timed(lambda: model.solve(Parameters(), posture), args.repeats)
-            with mock.patch.object(forward, "hessian_inertia", stale):
+            with mock.patch.object(continuation, "hessian_inertia", stale):
                 unchecked, _, b = timed(lambda: model.solve(Parameters(), posture), args.repeats)
             rows.append([level, posture.name, f"{checked:.3f}", f"{unchecked:.3f}", f"{checked / unchecked:.3f}",
                          a.negative_eigenvalues, bool(np.array_equal(a.position, b.position))])

@@ -13,7 +13,7 @@ For each mesh level, at the cold standing equilibrium of the reference parameter
   projected through its analytic eigensystem in a compiled loop, the skin blocks by
   ``eigh`` (what the solver uses since 01f4f21, 2026-11-22);
 - ``12×12 eigh``: the method before it, every bulk and skin element block built in
-  numpy and projected by a batched ``eigh`` (:func:`breastcore.energy.project_psd`),
+  numpy and projected by a batched ``eigh`` (:func:`breastcore.fem.terms.project_psd`),
   then assembled. Kept here, not in the package, as the baseline.
 
 ``--quick`` takes medians of 3 instead of 7, unless ``--repeats`` is given.
@@ -33,12 +33,13 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from benchmarks._common import header, print_table, timed  # noqa: E402
-from breastcore.energy import Chassaignac, project_psd  # noqa: E402
-from breastcore.forward import ForwardModel  # noqa: E402
-from breastcore.mesh import mesh_level  # noqa: E402
-from breastcore.parameters import Parameters  # noqa: E402
-from breastcore.postures import parse_posture  # noqa: E402
-from breastcore.solver import Factorization  # noqa: E402
+
+from breastcore.fem.terms import Chassaignac, project_psd  # noqa: E402
+from breastcore.forward.model import ForwardModel  # noqa: E402
+from breastcore.linalg.factorization import Factorization  # noqa: E402
+from breastcore.model.mesh import mesh_level  # noqa: E402
+from breastcore.model.parameters import Parameters  # noqa: E402
+from breastcore.model.postures import parse_posture  # noqa: E402
 
 
 def eigh_per_block(problem, x):

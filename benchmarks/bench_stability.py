@@ -20,7 +20,7 @@ killed and counted as a hang. Outcomes:
   their prescribed values and every tet has det F > 0;
 - ``unverified``: a solution was returned but that check failed;
 - ``nan``: a returned solution contains NaN/inf;
-- ``solve_error``: :class:`~breastcore.forward.SolveError` (a clean, typed failure);
+- ``solve_error``: :class:`~breastcore.forward.model.SolveError` (a clean, typed failure);
 - ``crash``: any other exception; ``hang``: killed at the time cap.
 
 Writes ``benchmarks/results/stability.csv`` (``stability_quick.csv`` with ``--quick``,
@@ -107,7 +107,7 @@ def sampled_grid(n, seed=20240611):
 
 
 def parameters(case):
-    from breastcore.parameters import Parameters
+    from breastcore.model.parameters import Parameters
     mu, mu_s = case["mu"], case["mu_s"]
     return Parameters(R=R, H=case["H_over_R"] * R, lambda_breast=case["lam_over_mu"] * mu, mu_breast=mu,
                       lambda_skin=5.0 * mu_s, mu_skin=mu_s, chassaignac=case["c"], smoothing=case["delta"])
@@ -117,8 +117,8 @@ _MODELS = {}
 
 
 def _model(level):
-    from breastcore.forward import ForwardModel
-    from breastcore.mesh import mesh_level
+    from breastcore.forward.model import ForwardModel
+    from breastcore.model.mesh import mesh_level
     if level not in _MODELS:
         _MODELS[level] = ForwardModel(mesh_level(level))
     return _MODELS[level]
@@ -127,8 +127,9 @@ def _model(level):
 def verify(level, params, posture, x):
     """Independent check of a returned solution; returns (ok, gradient norm, tolerance, min det F, why)."""
     import numpy as np
-    from breastcore.forward import ForwardModel
-    from breastcore.mesh import mesh_level
+
+    from breastcore.forward.model import ForwardModel
+    from breastcore.model.mesh import mesh_level
     model = ForwardModel(mesh_level(level))          # fresh: shares no state with the solver's model
     problem = model.problem(params, posture)
     tolerance = model.tolerance(params, posture)
@@ -149,8 +150,9 @@ def verify(level, params, posture, x):
 def run_case(case, level="coarse"):
     """Solve one grid case in this process and classify it (a dict row of the case table)."""
     import numpy as np
-    from breastcore.forward import SolveError
-    from breastcore.postures import parse_posture
+
+    from breastcore.forward.records import SolveError
+    from breastcore.model.postures import parse_posture
     row = dict(case)
     params = parameters(case)
     posture = parse_posture(case["posture"])

@@ -34,14 +34,15 @@ import yaml
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from benchmarks._common import RESULTS, ROOT, header, print_table  # noqa: E402
+
+from breastcore.io.datasets import open_dataset  # noqa: E402
+from breastcore.pipeline.config import validate_config  # noqa: E402
+from breastcore.pipeline.keys import spec_key  # noqa: E402
+from breastcore.pipeline.plan import Plan  # noqa: E402
 from breastcore.stages.identify import run_identify  # noqa: E402
 from breastcore.stages.measure import run_measure  # noqa: E402
 from breastcore.stages.mesh import run_mesh  # noqa: E402
 from breastcore.stages.solve import run_solve  # noqa: E402
-from breastcore.datasets import open_dataset  # noqa: E402
-from breastcore.workflow_config import validate_config  # noqa: E402
-from breastcore.keys import spec_key  # noqa: E402
-from breastcore.workflow_plan import Plan  # noqa: E402
 
 
 def table1_runs(level, starts, offsets):

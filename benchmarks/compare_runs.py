@@ -26,7 +26,8 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from benchmarks._common import ROOT, header, print_table  # noqa: E402
-from breastcore.datasets import open_dataset  # noqa: E402
+
+from breastcore.io.datasets import open_dataset  # noqa: E402
 
 
 def job_seconds(results: Path, key: str):

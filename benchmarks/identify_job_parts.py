@@ -29,10 +29,11 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 from benchmarks._common import header, print_table  # noqa: E402
-from breastcore import identify  # noqa: E402
+
+from breastcore.inverse import identify  # noqa: E402
+from breastcore.pipeline.config import validate_config  # noqa: E402
+from breastcore.pipeline.plan import Plan  # noqa: E402
 from breastcore.stages.identify import run_identify  # noqa: E402
-from breastcore.workflow_config import validate_config  # noqa: E402
-from breastcore.workflow_plan import Plan  # noqa: E402
 
 
 def paper_plan():

@@ -39,10 +39,11 @@ import xarray as xr
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from benchmarks._common import header, print_table  # noqa: E402
-from breastcore.forward import SolverOptions  # noqa: E402
 
-STEP = re.compile(r"breastcore\.forward: (\S+): step t=(\S+) load=\S+ δ=\S+: (.*) in \d+ iterations")
-CONVERGED = re.compile(r"breastcore\.forward: (\S+): converged in (\d+) iterations \((\d+) continuation")
+from breastcore.forward.options import SolverOptions  # noqa: E402
+
+STEP = re.compile(r"breastcore\.forward(?:\.continuation)?: (\S+): step t=(\S+) load=\S+ δ=\S+: (.*) in \d+ iterations")
+CONVERGED = re.compile(r"breastcore\.forward(?:\.continuation)?: (\S+): converged in (\d+) iterations \((\d+) continuation")
 GAVE_UP = re.compile(r"forward solve failed \((\S+): ")
 MODIFIED = re.compile(r"newton it=.* mode=(?:project|shift) ")
 

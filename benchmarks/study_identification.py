@@ -23,14 +23,26 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from benchmarks._common import RESULTS, header, print_table, run_python, verdict  # noqa: E402
-from benchmarks._ident import (LEVELS, NAMES, PAPER_ANNEX, PAPER_TABLE1_COARSE, TRUTH, child_code,  # noqa: E402
-                               forward_model, options, pct, random_starts, run,
-                               truth_measurements)
 import contextlib  # noqa: E402
 
-from breastcore.measure import QUANTITIES  # noqa: E402
-from breastcore.postures import PAPER_POSTURES  # noqa: E402
+from benchmarks._common import RESULTS, header, print_table, run_python, verdict  # noqa: E402
+from benchmarks._ident import (  # noqa: E402
+    LEVELS,
+    NAMES,
+    PAPER_ANNEX,
+    PAPER_TABLE1_COARSE,
+    TRUTH,
+    child_code,
+    forward_model,
+    options,
+    pct,
+    random_starts,
+    run,
+    truth_measurements,
+)
+
+from breastcore.inverse.measurements import QUANTITIES  # noqa: E402
+from breastcore.model.postures import PAPER_POSTURES  # noqa: E402
 
 PAPER_POSTURES_NAMES = tuple(PAPER_POSTURES)
 

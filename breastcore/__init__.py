@@ -24,7 +24,7 @@ def stage_hash(stage: str, root=None) -> str:
     """
     if stage not in STAGES:
         raise ValueError(f"unknown stage {stage!r}; stages: {', '.join(STAGES)}")
-    return source_hash(f"stages.{stage}", "logs", "keys", root=root)
+    return source_hash(f"stages.{stage}", "pipeline.logs", "pipeline.keys", root=root)
 
 
 def source_hash(*entries: str, root=None) -> str:

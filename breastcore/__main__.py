@@ -2,6 +2,6 @@
 
 import sys
 
-from breastcore.cli import main
+from breastcore.cli.main import main
 
 sys.exit(main())

@@ -12,10 +12,11 @@ import dataclasses
 import json
 from dataclasses import dataclass
 
-from .forward import ForwardModel, SolverOptions
-from .identification_options import IdentificationOptions
-from .parameters import Parameters
-from .postures import Posture, paper_postures
+from breastcore.forward.model import ForwardModel
+from breastcore.forward.options import SolverOptions
+from breastcore.inverse.options import IdentificationOptions
+from breastcore.model.parameters import Parameters
+from breastcore.model.postures import Posture, paper_postures
 
 #: Name of the dataset attribute that holds the JSON of the spec.
 ATTRIBUTE = "problem"
@@ -58,7 +59,7 @@ class ProblemSpec:
     def forward_model(self, mesh) -> ForwardModel:
         """The forward model on ``mesh`` with this spec's solver options.
 
-        ``Λ ↦ M(Λ)`` is :meth:`breastcore.observation.MeasurementModel.from_problem`.
+        ``Λ ↦ M(Λ)`` is :meth:`breastcore.inverse.operator.MeasurementModel.from_problem`.
         """
         return ForwardModel(mesh, self.solver)
 

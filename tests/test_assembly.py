@@ -3,7 +3,7 @@
 import numpy as np
 import scipy.sparse as sp
 
-from breastcore.assembly import FreeDofAssembler, element_dofs
+from breastcore.fem.assembly import FreeDofAssembler, element_dofs
 
 
 def _reference_pattern(connectivities, free):

@@ -100,9 +100,9 @@ def test_cold_variants_runs_in_a_copy_without_results(tmp_path):
 
 def test_warm_radius_builds_missing_inputs_with_the_workflow_stages(tmp_path, monkeypatch):
     """Inputs missing from ``results/`` are built by mesh → solve → measure; present ones are used."""
-    from breastcore.datasets import open_dataset
-    from breastcore.workflow_config import validate_config
-    from breastcore.workflow_plan import Plan
+    from breastcore.io.datasets import open_dataset
+    from breastcore.pipeline.config import validate_config
+    from breastcore.pipeline.plan import Plan
     warm = load(ROOT / "benchmarks" / "bench_warm_radius.py")
     config = validate_config({"scenes": {"s": {
         "kind": "synthetic", "truth_mesh": "coarse", "meshes": ["coarse"], "postures": ["fours"],

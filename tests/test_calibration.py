@@ -11,9 +11,10 @@ import numpy as np
 import pytest
 import yaml
 
-from breastcore.parameters import Parameters
-from breastcore.sliding import slip_threshold
-from breastcore.workflow_config import ConfigError, validate_config
+from breastcore.model.parameters import Parameters
+from breastcore.model.sliding import slip_threshold
+from breastcore.pipeline.config import validate_config
+from breastcore.pipeline.config_files import ConfigError
 
 ROOT = Path(__file__).resolve().parents[1]
 SCHEMA = ROOT / "workflow/schemas/config.schema.yaml"
@@ -30,11 +31,11 @@ TINY_SCENE = {"kind": "calibration", "grid": [1000.0, 100.0], "levels": ["coarse
 @pytest.fixture(scope="module")
 def tiny_study(tmp_path_factory):
     """Every job of a tiny calibration scene run through its stage function, then the summary."""
-    from breastcore.calibration_scene import calibration_summary
+    from breastcore.pipeline.plan import Plan
+    from breastcore.report.calibration import calibration_summary
     from breastcore.stages.calibrate import run_calibrate
     from breastcore.stages.mesh import run_mesh
     from breastcore.stages.uniqueness import run_uniqueness
-    from breastcore.workflow_plan import Plan
 
     results = tmp_path_factory.mktemp("calibration") / "results"
     config = validate_config({"results": str(results), "scenes": {"cal": copy.deepcopy(TINY_SCENE)}}, SCHEMA)
@@ -51,10 +52,10 @@ def tiny_study(tmp_path_factory):
 
 def _direct(level, c, posture, params=None):
     """A cold solve of our own on the level's mesh, measured: (15-value row, min det F)."""
-    from breastcore.forward import ForwardModel
-    from breastcore.measure import QUANTITIES, measure
-    from breastcore.mesh import mesh_level
-    from breastcore.postures import parse_posture
+    from breastcore.forward.model import ForwardModel
+    from breastcore.inverse.measurements import QUANTITIES, measure
+    from breastcore.model.mesh import mesh_level
+    from breastcore.model.postures import parse_posture
     model = ForwardModel(mesh_level(level))
     solution = model.solve((params or Parameters()).replace(chassaignac=c), parse_posture(posture))
     values = measure(model.mesh, solution.position)
@@ -108,8 +109,8 @@ def test_the_summary_stores_each_identification_s_fit_verdict_beside_its_success
     """The optimiser's success (1 for all three runs here) is not what an estimate is worth."""
     import xarray as xr
 
-    from breastcore.calibration_scene import _identification_variables
-    from breastcore.datasets import provenance, write_netcdf
+    from breastcore.io.datasets import provenance, write_netcdf
+    from breastcore.report.calibration import _identification_variables
     verdicts = [["consistent", "misfit"], ["not_converged", "consistent"]]       # (c, start), on medium
     cases = []
     for i, row in enumerate(verdicts):
@@ -134,8 +135,8 @@ def test_the_summary_stores_each_identification_s_fit_verdict_beside_its_success
 
 
 def test_the_uniqueness_probe_is_a_second_difference_of_cold_solves(tiny_study):
-    from breastcore.datasets import open_dataset
-    from breastcore.parameters import IDENTIFIED
+    from breastcore.io.datasets import open_dataset
+    from breastcore.model.parameters import IDENTIFIED
     plan, ds = tiny_study
     path, spec = next((p, s) for p, s in plan.jobs["uniqueness"].items() if s["constants"]["chassaignac"] == 1000.0)
     probe = open_dataset(path)
@@ -153,10 +154,11 @@ def test_the_uniqueness_probe_is_a_second_difference_of_cold_solves(tiny_study):
 
 
 def test_a_failed_solve_is_recorded_with_its_diagnostics_and_the_job_goes_on(monkeypatch):
-    from breastcore.calibration import level_points_dataset
-    from breastcore.forward import ForwardModel, SolveError
-    from breastcore.mesh import mesh_level
-    from breastcore.postures import parse_posture
+    from breastcore.forward.model import ForwardModel
+    from breastcore.forward.records import SolveError
+    from breastcore.model.mesh import mesh_level
+    from breastcore.model.postures import parse_posture
+    from breastcore.studies.calibration import level_points_dataset
     model = ForwardModel(mesh_level("coarse"))
     real = ForwardModel.solve
 
@@ -182,11 +184,11 @@ def test_a_failed_solve_is_recorded_with_its_diagnostics_and_the_job_goes_on(mon
 @pytest.mark.parametrize("job", ["calibrate", "uniqueness"])
 def test_an_inadmissible_first_point_is_refused_not_stored_as_the_default_parameters(job):
     """The problem spec of the dataset held Parameters(**constants), the default Λ, not the point."""
-    from breastcore.calibration import level_points_dataset, uniqueness_dataset
-    from breastcore.forward import ForwardModel
-    from breastcore.mesh import mesh_level
-    from breastcore.parameters import IDENTIFIED, ParameterError
-    from breastcore.postures import parse_posture
+    from breastcore.forward.model import ForwardModel
+    from breastcore.model.mesh import mesh_level
+    from breastcore.model.parameters import IDENTIFIED, ParameterError
+    from breastcore.model.postures import parse_posture
+    from breastcore.studies.calibration import level_points_dataset, uniqueness_dataset
     truth = Parameters().as_dict()
     bad = {**{k: truth[k] for k in IDENTIFIED}, "H": 2 * truth["R"]}        # H ≥ R: no cap
     model, postures = ForwardModel(mesh_level("coarse")), [parse_posture("standing"), parse_posture("fours")]
@@ -266,7 +268,7 @@ def test_the_calibration_config_plans_its_scene_and_nothing_else(tmp_path):
 def _merged(*files):
     """config.yaml with the opt-in files merged in (Snakemake's deep merge), checked, nulls dropped and
     validated, as the Snakefile does."""
-    from breastcore.workflow_config import _merge, check_overlays, drop_keys
+    from breastcore.pipeline.overlays import _merge, check_overlays, drop_keys
     config = yaml.safe_load((ROOT / "config.yaml").read_text())
     for name in files:
         config = _merge(config, yaml.safe_load((ROOT / name).read_text()))
@@ -275,7 +277,7 @@ def _merged(*files):
 
 
 def test_at_the_constants_c_the_identifications_are_the_paper_table1_jobs():
-    from breastcore.workflow_plan import Plan
+    from breastcore.pipeline.plan import Plan
     config = _merged("config/paper.yaml", "config/calibration.yaml")
     plan = Plan(config)
     ours = plan.scene("calibration")["cases"]
@@ -291,7 +293,7 @@ def test_at_the_constants_c_the_identifications_are_the_paper_table1_jobs():
 
 def test_the_rule_s_bounds_are_not_in_any_job_spec():
     """Changing a bound reruns only the summary and its figure: every job path stays."""
-    from breastcore.workflow_plan import Plan
+    from breastcore.pipeline.plan import Plan
     config = _merged("config/calibration.yaml")
     changed = copy.deepcopy(config)
     changed["scenes"]["calibration"].update(min_det_F=0.001, max_sliding_difference=0.02, linear_threshold=1e-6)

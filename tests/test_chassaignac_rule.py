@@ -4,7 +4,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from breastcore.chassaignac_rule import CalibrationError, choose_chassaignac
+from breastcore.studies.chassaignac_rule import CalibrationError, choose_chassaignac
 
 
 def _table(rows):
@@ -70,7 +70,7 @@ def test_the_rule_refuses_a_table_it_cannot_read():
 def test_criterion_b_is_what_sliding_adds_to_the_meshes_own_gap():
     """Measured: very-thin is 1.6 % from the reference at R, H × 1.3 whatever c (5000 Pa too), a floor no c
     removes; sliding adds 13 points at c = 300 Pa. The rule must see the second, not the first."""
-    from breastcore.calibration_scene import criteria_table
+    from breastcore.report.calibration import criteria_table
     c_values = np.array([300.0, 500.0, 5000.0])
     gap = np.array([[0.005, 0.146], [0.004, 0.018], [0.004, 0.016]])          # (c, point): truth, R,H × 1.3
     spec = {"det_F_posture": "standing", "compare_level": "very-thin", "reference": "reference", "probe_level": "thin"}

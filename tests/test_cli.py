@@ -6,7 +6,7 @@ from pathlib import Path
 
 import pytest
 
-from breastcore.parameters import PARAMETER_INFO
+from breastcore.model.parameters import PARAMETER_INFO
 
 
 def run(*args):
@@ -66,7 +66,7 @@ def test_bad_identify_cost_rtol_is_one_line_naming_the_option(tmp_path, value, f
 def test_list_names_the_scenes_each_dataset_serves(tmp_path, capsys):
     import xarray as xr
 
-    from breastcore.cli import main
+    from breastcore.cli.main import main
 
     def write(relative, **attrs):
         path = tmp_path / "results" / relative
@@ -129,7 +129,7 @@ def parser_options():
     """(command, option) -> argparse action of every optional argument of every sub-command."""
     import argparse
 
-    from breastcore.cli import build_parser
+    from breastcore.cli.main import build_parser
     sub = next(a for a in build_parser()._actions if isinstance(a, argparse._SubParsersAction))
     return {(command, action.option_strings[-1]): action for command, p in sub.choices.items()
             for action in p._actions if action.option_strings}
@@ -159,12 +159,12 @@ def files(tmp_path_factory):
     import numpy as np
     import xarray as xr
 
-    from breastcore.datasets import mesh_dataset, write_netcdf
-    from breastcore.measure import QUANTITIES
-    from breastcore.mesh import LEVEL_MESH_SIZE, mesh_level
-    from breastcore.patient import PatientMeasurements
-    from breastcore.postures import Posture
-    from breastcore.targets import measurement_dataset
+    from breastcore.inverse.measurements import QUANTITIES
+    from breastcore.io.datasets import mesh_dataset, write_netcdf
+    from breastcore.io.patient import PatientMeasurements
+    from breastcore.io.targets import measurement_dataset
+    from breastcore.model.mesh import LEVEL_MESH_SIZE, mesh_level
+    from breastcore.model.postures import Posture
 
     folder = tmp_path_factory.mktemp("inputs")
     si = np.array([[4.8e-4, 0.031, 0.150, 0.062, 0.055], [4.8e-4, 0.032, 0.140, 0.075, 0.070]])
@@ -192,7 +192,7 @@ def files(tmp_path_factory):
 def no_work(monkeypatch):
     """Replace the sub-commands' run() by a sentinel: bad options must be refused by argparse,
     before any mesh, solve or identification."""
-    from breastcore.commands import identify, sensitivity, solve
+    from breastcore.cli import identify, sensitivity, solve
 
     def reached(args):
         raise AssertionError(f"{args.command}: run() reached")
@@ -217,7 +217,7 @@ def one_error_line(capsys, command):
 @pytest.mark.parametrize("command, option, value", BAD_NUMBERS)
 def test_bad_number_is_one_line_naming_option_and_value(command, option, value, files, tmp_path, capsys,
                                                         no_work):
-    from breastcore.cli import main
+    from breastcore.cli.main import main
     assert main(argv(command, files, tmp_path, f"{option}={value}")) == 2
     line = one_error_line(capsys, command)
     assert option in line and repr(value) in line, line
@@ -227,7 +227,7 @@ def test_bad_number_is_one_line_naming_option_and_value(command, option, value, 
 @pytest.mark.parametrize("command", list(RANGES))
 def test_valid_numbers_reach_run(command, files, tmp_path, capsys, no_work):
     """The converters refuse the bad values only: the bounds themselves where they are allowed."""
-    from breastcore.cli import main
+    from breastcore.cli.main import main
     good = {POSITIVE: "1e-3", NON_NEGATIVE: "0", UNIT_OPEN: "0.5", UNIT_HALF_OPEN: "0", FOLD: "360", COUNT: "2"}
     extra = [f"{o}={good[kind]}" for o, kind in RANGES[command].items()]
     assert main(argv(command, files, tmp_path, *extra)) == 1
@@ -236,15 +236,15 @@ def test_valid_numbers_reach_run(command, files, tmp_path, capsys, no_work):
 
 def test_identify_rtol_reaches_the_problem_spec_and_its_forward_model(files, tmp_path, monkeypatch, capsys):
     """``identify --rtol`` sets the forward solver's tolerance, as ``solve --rtol`` does: not the default 1e-8."""
-    import breastcore.identify
-    from breastcore.cli import main
+    import breastcore.stages.identify
+    from breastcore.cli.main import main
     seen = []
 
     def spy(mm, target, initial, options, weights=None):
         seen.append(mm.model.options)
         raise RuntimeError("recorded; not run")
 
-    monkeypatch.setattr(breastcore.identify, "identify", spy)
+    monkeypatch.setattr(breastcore.stages.identify, "identify", spy)
     assert main(argv("identify", files, tmp_path, "--mesh", "coarse", "--rtol", "3e-7", "--solver", "cg")) == 1
     assert "recorded; not run" in capsys.readouterr().err
     assert [(o.rtol, o.method) for o in seen] == [(3e-7, "cg")]
@@ -256,7 +256,7 @@ def test_identify_rtol_reaches_the_problem_spec_and_its_forward_model(files, tmp
     ("R", "R"), ("density=1000", "density"),                   # not one of the six identified
 ])
 def test_bad_initial_guess_is_refused_by_the_parser(text, named, files, tmp_path, capsys, no_work):
-    from breastcore.cli import main
+    from breastcore.cli.main import main
     assert main(argv("identify", files, tmp_path, "--initial", text)) == 2
     line = one_error_line(capsys, "identify")
     assert "--initial" in line and named in line, line
@@ -267,7 +267,7 @@ def test_bad_initial_guess_is_refused_by_the_parser(text, named, files, tmp_path
     ("tilt=", "tilt="), ("supine", "supine"), ("standing=45", "45"), ("=30", "''"),
 ])
 def test_bad_posture_is_refused_by_the_parser(text, named, files, tmp_path, capsys, no_work):
-    from breastcore.cli import main
+    from breastcore.cli.main import main
     assert main(argv("solve", files, tmp_path, "--posture", "standing", "--posture", text)) == 2
     line = one_error_line(capsys, "solve")
     assert "--posture" in line and named in line, line
@@ -289,7 +289,7 @@ BAD_FILES = {"empty": ["empty", "not a netCDF file"], "text": ["not a netCDF fil
 @pytest.mark.parametrize("command, kind", [(c, k) for c in DATASET_ARGUMENTS for k in BAD_FILES
                                            if DATASET_ARGUMENTS[c][2] or k in ("empty", "text", "truncated")])
 def test_bad_dataset_is_one_line_naming_argument_and_problem(command, kind, files, tmp_path, capsys):
-    from breastcore.cli import main
+    from breastcore.cli.main import main
     build, name, stage = DATASET_ARGUMENTS[command]
     assert main(build(files[kind], str(tmp_path))) == 2
     line = one_error_line(capsys, command)
@@ -302,7 +302,7 @@ def test_bad_dataset_is_one_line_naming_argument_and_problem(command, kind, file
 def test_dataset_type_returns_the_path_of_an_accepted_stage(files):
     import argparse
 
-    from breastcore.cli import dataset_file
+    from breastcore.cli.options import dataset_file
     assert dataset_file("solve", "identify")(files["identify"]) == Path(files["identify"])
     assert dataset_file()(files["no-stage"]) == Path(files["no-stage"])      # show: any netCDF
     with pytest.raises(argparse.ArgumentTypeError, match="expected stage 'solve' or 'identify'"):
@@ -312,7 +312,7 @@ def test_dataset_type_returns_the_path_of_an_accepted_stage(files):
 
 
 def test_measurement_dataset_with_a_nan_names_the_value(files, tmp_path, capsys, no_work):
-    from breastcore.cli import main
+    from breastcore.cli.main import main
     assert main(["identify", "--measurements", files["nan-measure"], "--out", str(tmp_path / "o.nc")]) == 2
     line = one_error_line(capsys, "identify")
     assert all(w in line for w in ("--measurements", "bent45", "area", "nan")), line
@@ -329,9 +329,9 @@ def test_too_few_weighted_measurements_are_refused_while_parsing(weighted, words
 
     import numpy as np
 
-    from breastcore.cli import main
-    from breastcore.datasets import open_dataset, write_netcdf
-    from breastcore.targets import measurement_dataset, target_from_dataset
+    from breastcore.cli.main import main
+    from breastcore.io.datasets import open_dataset, write_netcdf
+    from breastcore.io.targets import measurement_dataset, target_from_dataset
     target = target_from_dataset(open_dataset(files["measure"]))          # two postures: 10 measurements
     weights = np.zeros_like(target.weights)
     for index in weighted:
@@ -347,7 +347,7 @@ def test_too_few_weighted_measurements_are_refused_while_parsing(weighted, words
     ("-5", ["standing", "volume", "-5 ml", "> 0"]), ("0", ["standing", "volume", "0 ml"]),
     (".nan", ["standing", "volume", "nan ml"])])
 def test_bad_patient_value_is_one_line_naming_posture_quantity_and_value(tmp_path, capsys, value, words):
-    from breastcore.cli import main
+    from breastcore.cli.main import main
     path = tmp_path / "p.yaml"
     path.write_text("postures:\n"
                     f"  standing: {{volume: {value}, area: 310, height: 150, frontal_depth: 62, back_depth: 55}}\n"
@@ -358,7 +358,7 @@ def test_bad_patient_value_is_one_line_naming_posture_quantity_and_value(tmp_pat
 
 
 def test_unparsable_patient_file_is_one_line(tmp_path, capsys):
-    from breastcore.cli import main
+    from breastcore.cli.main import main
     (tmp_path / "p.yaml").write_text("postures: [standing\n")
     (tmp_path / "p.csv").write_bytes(b"\xff\xfeposture")
     for name, words in (("p.yaml", ["not valid YAML", "line"]), ("p.csv", ["UTF-8"])):
@@ -387,7 +387,7 @@ def test_identify_warns_of_each_input_note_of_its_measurements(tmp_path):
     identify's stderr too, as warnings, not only in the datasets."""
     import json
 
-    from breastcore.datasets import open_dataset
+    from breastcore.io.datasets import open_dataset
     path = tmp_path / "p.yaml"
     path.write_text("postures:\n"
                     "  standing: {volume: 601, area: 362, height: 600, frontal_depth: 51, back_depth: 41}\n"
@@ -405,7 +405,7 @@ def test_identify_warns_of_each_input_note_of_its_measurements(tmp_path):
 
 def test_an_implausible_patient_is_refused_naming_the_option_that_runs_it(tmp_path, capsys):
     """The command line names its own option, --allow-implausible, not the config key."""
-    from breastcore.cli import main
+    from breastcore.cli.main import main
     path = tmp_path / "p.yaml"
     path.write_text("postures:\n"
                     "  standing: {volume: 601, area: 1, height: 115, frontal_depth: 51, back_depth: 41}\n"

@@ -2,11 +2,10 @@
 
 import numpy as np
 import pytest
-
-from breastcore.assembly import FreeDofAssembler, element_dofs
-from breastcore.energy import BulkNeoHookean, Chassaignac, SkinMembrane
-
 from test_energy import deformed
+
+from breastcore.fem.assembly import FreeDofAssembler, element_dofs
+from breastcore.fem.terms import BulkNeoHookean, Chassaignac, SkinMembrane
 
 
 @pytest.fixture
@@ -56,7 +55,7 @@ def test_direct_scatter_equals_block_assembly_with_fixed_dofs(small_box, rng):
 
 def _scatter_projected(bulk, x, clamp=True):
     """Dense ``(T·12, 12)`` blocks from the compiled projected scatter (identity positions)."""
-    from breastcore import compiled
+    from breastcore.fem import compiled
     n = len(bulk.connectivity)
     positions = np.arange(n * 144, dtype=np.int32).reshape(n, 12, 12)
     data = np.zeros(n * 144)
@@ -105,7 +104,7 @@ def test_projection_keeps_the_exact_blocks_of_psd_tangent_moduli(small_box):
 
 def test_tangent_moduli_are_the_fd_derivative_of_the_stress(small_box, rng):
     """``C = ∂P/∂F`` against central differences of ``P = μF + c_inv F⁻ᵀ`` (the stress in the kernel)."""
-    from breastcore import kernels
+    from breastcore.fem import kernels
     bulk = BulkNeoHookean(small_box[0], small_box[1], 1000.0, 150.0)
     x = deformed(small_box[0], rng)
     F = bulk.deformation_gradient(x)[:3]

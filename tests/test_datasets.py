@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 import xarray as xr
 
-from breastcore.datasets import write_netcdf
+from breastcore.io.datasets import write_netcdf
 
 
 def _dataset(value):

@@ -4,8 +4,8 @@ zero energy at rest, closed forms under homogeneous stretch, rigid invariance.""
 import numpy as np
 import pytest
 
-from breastcore.assembly import FreeDofAssembler
-from breastcore.energy import BulkNeoHookean, Chassaignac, Composite, Gravity, SkinMembrane, project_psd
+from breastcore.fem.assembly import FreeDofAssembler
+from breastcore.fem.terms import BulkNeoHookean, Chassaignac, Composite, Gravity, SkinMembrane, project_psd
 
 
 def make_terms(nodes, tets, top, bottom, delta=1e-3):
@@ -126,7 +126,7 @@ def test_modulus_gradient_is_the_derivative_of_the_gradient_in_that_modulus(smal
     """The implicit Jacobian's ∂g/∂p for the moduli: exact, checked against a central difference."""
     import copy
 
-    from breastcore.energy import modulus_gradient
+    from breastcore.fem.terms import modulus_gradient
 
     nodes, tets, top, bottom = small_box
     term = make_terms(nodes, tets, top, bottom)[which]

@@ -3,19 +3,19 @@
 import numpy as np
 import pytest
 import scipy.sparse as sp
-
-from breastcore import solver
-from breastcore.assembly import FreeDofAssembler
-from breastcore.energy import BulkNeoHookean
-from breastcore.forward import ForwardModel
-from breastcore.mesh import mesh_level
-from breastcore.parameters import Parameters
-from breastcore.postures import parse_posture
-from breastcore.solver import Factorization
-
 from test_energy import deformed
 
-pytestmark = pytest.mark.skipif(solver._pardiso is None, reason="mixed precision needs PARDISO")
+from breastcore.fem.assembly import FreeDofAssembler
+from breastcore.fem.terms import BulkNeoHookean
+from breastcore.forward.model import ForwardModel
+from breastcore.linalg import factorization, pardiso
+from breastcore.linalg.factorization import Factorization
+from breastcore.model.mesh import mesh_level
+from breastcore.model.parameters import Parameters
+from breastcore.model.postures import parse_posture
+from breastcore.nonlinear.newton import newton
+
+pytestmark = pytest.mark.skipif(not pardiso.available(), reason="mixed precision needs PARDISO")
 
 
 def _relative_residual(K, x, b):
@@ -34,11 +34,11 @@ def test_mixed_precision_solve_is_refined_to_double_accuracy(small_box, rng):
     mixed = Factorization(K, assembler.pattern, mixed=True)
     x = mixed.solve(b)
     assert mixed.mixed and mixed.refinement_steps >= 1            # the single factor alone is not enough
-    assert _relative_residual(K, x, b) <= solver.REFINEMENT_RTOL
+    assert _relative_residual(K, x, b) <= factorization.REFINEMENT_RTOL
     np.testing.assert_allclose(x, double.solve(b), rtol=0, atol=1e-10 * np.abs(x).max())
     assert mixed.negative_pivots == double.negative_pivots
     B = rng.standard_normal((K.shape[0], 3))                       # several right-hand sides at once
-    assert _relative_residual(K, mixed.solve(B), B) <= np.sqrt(3) * solver.REFINEMENT_RTOL
+    assert _relative_residual(K, mixed.solve(B), B) <= np.sqrt(3) * factorization.REFINEMENT_RTOL
 
 
 def test_ill_conditioned_matrix_falls_back_to_double_precision(rng):
@@ -61,10 +61,10 @@ def test_newton_in_mixed_precision_reaches_the_same_equilibrium(monkeypatch):
     problem = model.problem(params, fours, 1.0, 1e-4)
     tolerance = model.tolerance(params, fours)
     z0 = problem.free(problem.reference)
-    double = solver.newton(problem, z0, tolerance)
-    monkeypatch.setattr(solver, "MIXED_PRECISION_MIN_DOFS", 0)
+    double = newton(problem, z0, tolerance)
+    monkeypatch.setattr(factorization, "MIXED_PRECISION_MIN_DOFS", 0)
     assert Factorization(problem.hessian(z0), problem.pattern).mixed                  # the path under test
-    mixed = solver.newton(problem, z0, tolerance)
+    mixed = newton(problem, z0, tolerance)
     assert double.success and mixed.success
     assert mixed.negative_pivots == double.negative_pivots == 0
     assert np.linalg.norm(problem.gradient(mixed.x)) <= tolerance           # an equilibrium, recomputed

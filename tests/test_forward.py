@@ -4,13 +4,15 @@ the CG baseline at the same tolerance, and typed failures with diagnostics."""
 import numpy as np
 import pytest
 
-from breastcore.cli import main
-from breastcore.datasets import open_dataset
-from breastcore.forward import ForwardModel, SolveError, SolverOptions
-from breastcore.mesh import mesh_level
-from breastcore.parameters import Parameters
-from breastcore.postures import Posture, paper_postures
-from breastcore.solution import equilibrium_residual
+from breastcore.cli.main import main
+from breastcore.forward.model import ForwardModel
+from breastcore.forward.options import SolverOptions
+from breastcore.forward.records import SolveError
+from breastcore.io.datasets import open_dataset
+from breastcore.io.solution import equilibrium_residual
+from breastcore.model.mesh import mesh_level
+from breastcore.model.parameters import Parameters
+from breastcore.model.postures import Posture, paper_postures
 
 
 @pytest.fixture(scope="module")

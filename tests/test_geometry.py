@@ -1,4 +1,4 @@
-"""Tests of breastcore.geometry: closed-form cap quantities and the smooth mesh map."""
+"""Tests of breastcore.model.geometry: closed-form cap quantities and the smooth mesh map."""
 
 import math
 
@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 from scipy.integrate import quad
 
-from breastcore.geometry import CapMap, base_radius, cap_skin_area, cap_volume, check_cap
-from breastcore.mesh import H0, R0, mesh_cap, mesh_level
+from breastcore.model.geometry import CapMap, base_radius, cap_skin_area, cap_volume, check_cap
+from breastcore.model.mesh import H0, R0, mesh_cap, mesh_level
 
 GEOMETRIES = [(R0 * k, R0 * k * ratio) for k in (0.5, 1.0, 2.0) for ratio in (0.3, 0.6, 0.97)]
 

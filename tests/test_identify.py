@@ -6,18 +6,18 @@ import re
 
 import numpy as np
 import pytest
-
-from breastcore.cli import main
-from breastcore.datasets import open_dataset
-from breastcore.forward import ForwardModel, SolveError
-from breastcore.identify import (IdentificationOptions, from_unconstrained, identify, to_unconstrained,
-                                 unconstrained_chain)
-from breastcore.mesh import mesh_level
-from breastcore.observation import MeasurementModel
-from breastcore.parameters import Parameters
-from breastcore.postures import paper_postures
-
 from linear_model import LinearModel  # tests/linear_model.py
+
+from breastcore.cli.main import main
+from breastcore.forward.model import ForwardModel
+from breastcore.forward.records import SolveError
+from breastcore.inverse.identify import from_unconstrained, identify, to_unconstrained, unconstrained_chain
+from breastcore.inverse.operator import MeasurementModel
+from breastcore.inverse.options import IdentificationOptions
+from breastcore.io.datasets import open_dataset
+from breastcore.model.mesh import mesh_level
+from breastcore.model.parameters import Parameters
+from breastcore.model.postures import paper_postures
 
 TRUTH = np.array(Parameters().identified())
 
@@ -307,8 +307,8 @@ def test_solutions_record_whether_they_were_solved_cold_and_cold_solves_repeat_b
 
 def test_branch_check_is_skipped_when_the_estimate_was_solved_cold(monkeypatch):
     """Cold estimate equilibria: no cold re-solve and drift 0; warm ones are still checked."""
-    from breastcore import identify as identify_module
-    from breastcore.identify import IdentificationResult
+    from breastcore.inverse.identify import IdentificationResult
+    from breastcore.inverse import identify as identify_module
     mm = LinearModel(5e-2)
     calls = []
     solve = mm.solve

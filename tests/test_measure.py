@@ -6,13 +6,23 @@ import math
 import numpy as np
 import pytest
 
-from breastcore.forward import ForwardModel
-from breastcore.geometry import base_radius, cap_skin_area, cap_volume
-from breastcore.measure import (MEASUREMENT_SETS, QUANTITIES, UNITS, MeasurementError, default_smoothing_length,
-                                landmark_positions, measure, smooth_max, smoothing_bias, tape_radii)
-from breastcore.mesh import mesh_cap, mesh_level
-from breastcore.parameters import Parameters
-from breastcore.postures import paper_postures
+from breastcore.forward.model import ForwardModel
+from breastcore.inverse.measurements import (
+    MEASUREMENT_SETS,
+    QUANTITIES,
+    UNITS,
+    MeasurementError,
+    default_smoothing_length,
+    landmark_positions,
+    measure,
+    smooth_max,
+    smoothing_bias,
+    tape_radii,
+)
+from breastcore.model.geometry import base_radius, cap_skin_area, cap_volume
+from breastcore.model.mesh import mesh_cap, mesh_level
+from breastcore.model.parameters import Parameters
+from breastcore.model.postures import paper_postures
 
 R, H = 0.0562, 0.05
 SIZES = (0.012, 0.008, 0.006)

@@ -1,13 +1,22 @@
-"""Tests of breastcore.mesh: gmsh caps, levels, boundary, landmarks, meridians, fold."""
+"""Tests of breastcore.model.mesh: gmsh caps, levels, boundary, landmarks, meridians, fold."""
 
 import math
 
 import numpy as np
 import pytest
 
-from breastcore.geometry import base_radius, cap_skin_area, cap_volume
-from breastcore.mesh import (H0, LEVEL_MESH_SIZE, LEVEL_NODE_COUNTS, R0, _build, mesh_cap,
-                             mesh_level, refold, resolve_size)
+from breastcore.model.geometry import base_radius, cap_skin_area, cap_volume
+from breastcore.model.mesh import (
+    H0,
+    LEVEL_MESH_SIZE,
+    LEVEL_NODE_COUNTS,
+    R0,
+    _build,
+    mesh_cap,
+    mesh_level,
+    refold,
+    resolve_size,
+)
 
 SPEC_LEVELS = ["coarse", "medium", "medium-thin", "thin", "very-thin", "ultra-thin", "reference"]
 

@@ -6,11 +6,13 @@ from pathlib import Path
 
 import pytest
 
-from breastcore.forward import ForwardModel, SolveError, SolverOptions
-from breastcore.logs import log_to
-from breastcore.mesh import mesh_level
-from breastcore.parameters import Parameters
-from breastcore.postures import Posture
+from breastcore.forward.model import ForwardModel
+from breastcore.forward.options import SolverOptions
+from breastcore.forward.records import SolveError
+from breastcore.model.mesh import mesh_level
+from breastcore.model.parameters import Parameters
+from breastcore.model.postures import Posture
+from breastcore.pipeline.logs import log_to
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
@@ -28,7 +30,7 @@ def test_solve_kinds_counts_cold_warm_and_final_step_failures(tmp_path):
         with pytest.raises(SolveError) as info:              # rtol below round-off: the final step fails
             ForwardModel(mesh, SolverOptions(rtol=1e-20, max_final_attempts=2)).solve(Parameters(), posture)
         # identify logs a failed trial solve in this form
-        logging.getLogger("breastcore.identify").info("identify: step rejected, forward solve failed (%s)", info.value)
+        logging.getLogger("breastcore.inverse.identify").info("identify: step rejected, forward solve failed (%s)", info.value)
     iterations, counts, outcomes, retry = solve_kinds(log)
     assert counts == {"cold": 1, "warm": 1}
     assert iterations == {"cold": cold.iterations, "warm": warm.iterations}

@@ -3,9 +3,9 @@
 import numpy as np
 import pytest
 
-from breastcore import paper_values as paper
-from breastcore.mesh import LEVEL_NODE_COUNTS
-from breastcore.parameters import IDENTIFIED
+from breastcore.model.mesh import LEVEL_NODE_COUNTS
+from breastcore.model.parameters import IDENTIFIED
+from breastcore.report import paper_values as paper
 
 
 def test_the_papers_mesh_sizes_are_our_levels():

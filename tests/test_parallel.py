@@ -6,7 +6,7 @@ import textwrap
 
 import pytest
 
-from breastcore.parallel import fork_map
+from breastcore.forward.parallel import fork_map
 
 
 def test_fork_map_keeps_order_and_closes_over_unpicklable_state():
@@ -37,7 +37,7 @@ def test_fork_map_raises_broken_pool_when_a_child_dies():
     script = textwrap.dedent("""
         import os
         from concurrent.futures.process import BrokenProcessPool
-        from breastcore.parallel import fork_map
+        from breastcore.forward.parallel import fork_map
         try:
             fork_map(lambda i: os._exit(1) if i == 1 else i, 3, processes=2)
         except BrokenProcessPool:

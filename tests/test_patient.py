@@ -9,11 +9,18 @@ import numpy as np
 import pytest
 import yaml
 
-from breastcore.measure import QUANTITIES, MeasurementError
-from breastcore.patient import (DEFAULT_UNITS, UNIT_FACTORS, ImplausibleMeasurements, MeasurementWarning,
-                                PatientMeasurements,
-                                check_consistency, load_patient, patient_from_dict)
-from breastcore.postures import Posture
+from breastcore.inverse.measurements import QUANTITIES, MeasurementError
+from breastcore.io.patient import (
+    DEFAULT_UNITS,
+    UNIT_FACTORS,
+    ImplausibleMeasurements,
+    MeasurementWarning,
+    PatientMeasurements,
+    check_consistency,
+    load_patient,
+    patient_from_dict,
+)
+from breastcore.model.postures import Posture
 
 # Plausible values (implausible()): volume ≥ (2π/3) back_depth³ and area ≥ π back_depth² in every posture.
 ROWS = {"standing": (600, 310, 150, 62, 55), "bent45": (1100, 320, 140, 75, 70), "fours": (1400, 330, 130, 85, 80)}
@@ -215,12 +222,12 @@ def test_implausible_input_is_refused_with_the_rule_and_values_unless_allowed(qu
 
 def test_the_rules_hold_for_the_models_own_measurements():
     """Every cap of the model obeys them: the paper's Λ̄ solved on coarse, in all three postures."""
-    from breastcore.forward import ForwardModel
-    from breastcore.measure import measure
-    from breastcore.mesh import mesh_level
-    from breastcore.parameters import Parameters
-    from breastcore.patient import implausible
-    from breastcore.postures import paper_postures
+    from breastcore.forward.model import ForwardModel
+    from breastcore.inverse.measurements import measure
+    from breastcore.io.patient import implausible
+    from breastcore.model.mesh import mesh_level
+    from breastcore.model.parameters import Parameters
+    from breastcore.model.postures import paper_postures
     mesh = mesh_level("coarse")
     model = ForwardModel(mesh)
     for params in (Parameters(), Parameters(R=0.07, H=0.03, mu_breast=40.0)):

@@ -6,16 +6,17 @@ import dataclasses
 import numpy as np
 import pytest
 
-from breastcore import sensitivity as sensitivity_module
-from breastcore.datasets import mesh_dataset, open_dataset, write_netcdf
-from breastcore.forward import SolverOptions
-from breastcore.identification_options import IdentificationOptions
-from breastcore.mesh import LEVEL_MESH_SIZE, mesh_level
-from breastcore.observation import MeasurementModel
-from breastcore.parameters import IDENTIFIED, Parameters
-from breastcore.postures import Posture, paper_postures
+from breastcore.forward.options import SolverOptions
+from breastcore.inverse import sensitivity as sensitivity_module
+from breastcore.inverse.operator import MeasurementModel
+from breastcore.inverse.options import IdentificationOptions
+from breastcore.io.datasets import mesh_dataset, open_dataset, write_netcdf
+from breastcore.io.rebuild import model_mesh_from_identification, problem_from_identification
+from breastcore.io.solution import equilibrium_residual
+from breastcore.model.mesh import LEVEL_MESH_SIZE, mesh_level
+from breastcore.model.parameters import IDENTIFIED, Parameters
+from breastcore.model.postures import Posture, paper_postures
 from breastcore.problem import ProblemSpec, ProblemSpecError
-from breastcore.solution import equilibrium_residual
 from breastcore.stages.calibrate import run_calibrate
 from breastcore.stages.extreme import run_extreme_guesses
 from breastcore.stages.identify import run_identify
@@ -24,7 +25,6 @@ from breastcore.stages.sensitivity import run_sensitivity
 from breastcore.stages.solve import run_solve
 from breastcore.stages.stability import run_stability
 from breastcore.stages.uniqueness import run_uniqueness
-from breastcore.study import model_mesh_from_identification, problem_from_identification
 
 #: Non-default constants, solver options and identification options: none may be replaced by a default.
 CONSTANTS = dict(skin_thickness=1.2e-3, density=1010.0, gravity_magnitude=9.8, chassaignac=300.0, smoothing=1e-5,
@@ -136,7 +136,7 @@ def equilibrium_tolerance_default(path):
     """The tolerance the default rtol would give: the residual check must not use it."""
     ds = open_dataset(path)
     spec = ProblemSpec.from_dataset(ds)
-    from breastcore.datasets import mesh_from_dataset
+    from breastcore.io.datasets import mesh_from_dataset
     model = spec.replace(solver=SolverOptions()).forward_model(mesh_from_dataset(ds))
     return model.tolerance(spec.parameters, spec.postures[1])
 
@@ -212,7 +212,7 @@ def test_finite_sensitivity_re_identifies_with_exactly_the_identification_proble
     if via == "stage":
         run_sensitivity({"finite": True, "delta": 0.1}, paths["identify"], tmp_path / "s.nc")
     else:
-        from breastcore import cli
+        from breastcore.cli import main as cli
         assert cli.main(["sensitivity", str(paths["identify"]), "--delta", "0.1", "--out",
                          str(tmp_path / "s.nc")]) == 0
     recorded = ProblemSpec.from_dataset(open_dataset(paths["identify"]))

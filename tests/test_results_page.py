@@ -4,9 +4,9 @@ import numpy as np
 import pytest
 import xarray as xr
 
-from breastcore import paper_values as paper
-from breastcore.parameters import IDENTIFIED
-from breastcore.results_page import evolution_table, level_table, measurement_table, paper_comparison_table
+from breastcore.model.parameters import IDENTIFIED
+from breastcore.report import paper_values as paper
+from breastcore.report.results_page import evolution_table, level_table, measurement_table, paper_comparison_table
 
 
 def summary(meshes, errors, times, offsets=None):
@@ -64,7 +64,7 @@ def test_measurement_table_sets_the_papers_case_a_rows_beside_only_when_asked():
 
 def test_evolution_table_is_unsigned_like_the_paper_and_shows_its_row_once_per_mesh(tmp_path):
     """Built from the summary alone: its identification files (not inputs of the rule) need not exist."""
-    from breastcore.scene import _histories
+    from breastcore.report.summaries import _histories
     truth = np.array([0.05, 0.04, 1000.0, 150.0, 8000.0, 1600.0])
     runs = []
     for k in range(2):
@@ -89,10 +89,10 @@ def test_evolution_table_is_unsigned_like_the_paper_and_shows_its_row_once_per_m
 
 
 def test_discretisation_error_is_zero_against_itself_and_nan_where_a_solve_did_not_converge(tmp_path):
-    from breastcore.datasets import open_dataset, write_netcdf
+    from breastcore.io.datasets import open_dataset, write_netcdf
+    from breastcore.report.summaries import discretisation_error
     from breastcore.stages.mesh import run_mesh
     from breastcore.stages.solve import run_solve
-    from breastcore.scene import discretisation_error
 
     run_mesh({"level": "coarse"}, tmp_path / "mesh.nc")
     postures = [{"name": "standing", "angle": 0.0}, {"name": "fours", "angle": 90.0}]

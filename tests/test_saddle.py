@@ -1,15 +1,17 @@
 """Saddle points: detection by the Hessian's inertia and the escape to a minimum."""
 
 import dataclasses
+
 import numpy as np
 import pytest
 import scipy.linalg as sl
 import scipy.sparse as sp
 
-from breastcore import solver
-from breastcore.saddle import escape_saddle, negative_curvature_directions
+from breastcore.linalg import factorization, pardiso
+from breastcore.nonlinear import newton as solver
+from breastcore.nonlinear.saddle import escape_saddle, negative_curvature_directions
 
-pytestmark = pytest.mark.skipif(solver._pardiso is None, reason="the inertia needs MKL PARDISO")
+pytestmark = pytest.mark.skipif(not pardiso.available(), reason="the inertia needs MKL PARDISO")
 
 
 class DoubleWell:
@@ -61,14 +63,14 @@ class DoubleSaddle(DoubleWell):
 
 def test_escape_follows_every_negative_direction_in_one_round(monkeypatch):
     """Leaving along the lowest direction only would stop on an inertia-1 saddle and need a second eigen-solve."""
-    import breastcore.saddle as saddle
+    import breastcore.nonlinear.saddle as saddle
     calls = []
     original = saddle.negative_curvature_directions
     monkeypatch.setattr(saddle, "negative_curvature_directions",
                         lambda K, count, pattern=None: calls.append(count) or original(K, count, pattern))
     problem = DoubleSaddle()
     at_saddle = solver.newton(problem, np.zeros(2), 1e-12)          # g = 0: converged, on the saddle
-    inertia = solver.Factorization(problem.hessian(at_saddle.x)).negative_pivots
+    inertia = factorization.Factorization(problem.hessian(at_saddle.x)).negative_pivots
     at_saddle = dataclasses.replace(at_saddle, negative_pivots=inertia)
     assert at_saddle.success and np.allclose(at_saddle.x, 0.0) and at_saddle.negative_pivots == 2
     result = escape_saddle(problem, at_saddle)
@@ -95,10 +97,10 @@ def test_negative_curvature_directions_match_dense_eigenpairs():
 
 def test_refined_mesh_solve_returns_a_stable_minimum():
     """thin, bent45: plain Newton ends on a saddle (κ ≈ −3 N/m); the solve must not."""
-    from breastcore.forward import ForwardModel
-    from breastcore.mesh import mesh_level
-    from breastcore.parameters import Parameters
-    from breastcore.postures import parse_posture
+    from breastcore.forward.model import ForwardModel
+    from breastcore.model.mesh import mesh_level
+    from breastcore.model.parameters import Parameters
+    from breastcore.model.postures import parse_posture
     mesh = mesh_level("thin")
     model = ForwardModel(mesh)
     params, posture = Parameters(), parse_posture("bent45")
@@ -109,22 +111,22 @@ def test_refined_mesh_solve_returns_a_stable_minimum():
     z = problem.free(solution.position)
     plain = solver.newton(problem, z, solution.tolerance)        # independent check of the inertia
     assert plain.success and plain.iterations == 0
-    inertia = solver.Factorization(problem.hessian(z)).negative_pivots
+    inertia = factorization.Factorization(problem.hessian(z)).negative_pivots
     assert inertia == 0 and solution.negative_eigenvalues == 0
     assert np.linalg.norm(problem.gradient(z)) <= solution.tolerance
 
 
 def test_shift_diagonal_keeps_the_pattern_and_adds_sigma_identity():
     K = sp.csr_matrix((np.r_[4.0, 0.0, 1.0, 2.0, 0.0, 1.0, 3.0], [0, 1, 2, 1, 2, 0, 2], [0, 3, 5, 7]), shape=(3, 3))
-    shifted = solver.shift_diagonal(K, -1.5)                    # K has explicit zeros, which K - 1.5 I drops
+    shifted = factorization.shift_diagonal(K, -1.5)                    # K has explicit zeros, which K - 1.5 I drops
     assert np.array_equal(shifted.indices, K.indices) and np.array_equal(shifted.indptr, K.indptr)
     assert np.allclose(shifted.toarray(), K.toarray() - 1.5 * np.eye(3))
-    pattern = solver.SymmetricPattern(K.indptr, K.indices, 3)
+    pattern = pardiso.SymmetricPattern(K.indptr, K.indices, 3)
     assert pattern.matches(shifted) and not pattern.matches((K - 1.5 * sp.identity(3)).tocsr())
 
 
 def test_failed_last_round_returns_the_converged_saddle_not_a_failure(monkeypatch):
-    from breastcore import saddle
+    from breastcore.nonlinear import saddle
     problem = DoubleWell()
     at_saddle = solver.newton(problem, np.array([0.3, 0.0]), 1e-12)
     real_newton = saddle.newton
@@ -158,7 +160,7 @@ class FlatWell(DoubleWell):
 
 
 def test_a_neutral_direction_is_not_escaped():
-    from breastcore.saddle import NEUTRAL_CURVATURE
+    from breastcore.nonlinear.saddle import NEUTRAL_CURVATURE
     problem = FlatWell()
     at_saddle = solver.newton(problem, np.array([0.3, 0.0]), 1e-14)
     assert at_saddle.success and at_saddle.negative_pivots == 1
@@ -197,10 +199,10 @@ def test_newton_stops_early_when_the_gradient_sits_at_its_round_off_floor():
 
 
 class _Model:
-    """The part of a ForwardModel that :func:`breastcore.forward._settle` reads."""
+    """The part of a ForwardModel that :func:`breastcore.forward.model._settle` reads."""
 
     def __init__(self, method):
-        from breastcore.forward import SolverOptions
+        from breastcore.forward.options import SolverOptions
         self.options = SolverOptions(method=method)
 
 
@@ -208,8 +210,8 @@ class _Model:
 def test_a_solve_that_ends_on_a_saddle_leaves_it_by_its_own_method(method):
     """Started on the saddle, both minimisers stop at once (g = 0) and report no inertia of their
     own at that point; the inertia at the returned point is computed, and the saddle is left."""
-    from breastcore.cg import conjugate_gradient
-    from breastcore.forward import _settle
+    from breastcore.forward.continuation import _settle
+    from breastcore.nonlinear.cg import conjugate_gradient
     problem = DoubleWell()
     on_saddle = (conjugate_gradient(problem, np.zeros(2), 1e-12) if method == "cg"
                  else solver.newton(problem, np.zeros(2), 1e-12))
@@ -226,8 +228,8 @@ def test_newton_says_its_inertia_is_that_of_the_iterate_before_its_last_step():
 
 @pytest.fixture(scope="module")
 def coarse_model():
-    from breastcore.forward import ForwardModel
-    from breastcore.mesh import mesh_level
+    from breastcore.forward.model import ForwardModel
+    from breastcore.model.mesh import mesh_level
     return ForwardModel(mesh_level("coarse"))
 
 
@@ -235,10 +237,11 @@ def coarse_model():
 def test_recorded_negative_eigenvalues_are_the_inertia_at_the_returned_position(method):
     """Cold and warm (no iteration needed) solves, Newton and CG: the recorded count is recomputed
     independently at the returned position. CG solves and warm solves used to record -1."""
-    from breastcore.forward import ForwardModel, SolverOptions
-    from breastcore.mesh import mesh_level
-    from breastcore.parameters import Parameters
-    from breastcore.postures import paper_postures
+    from breastcore.forward.model import ForwardModel
+    from breastcore.forward.options import SolverOptions
+    from breastcore.model.mesh import mesh_level
+    from breastcore.model.parameters import Parameters
+    from breastcore.model.postures import paper_postures
     model = ForwardModel(mesh_level("coarse"), SolverOptions(method=method))
     params = Parameters()
     for posture in paper_postures():
@@ -247,5 +250,5 @@ def test_recorded_negative_eigenvalues_are_the_inertia_at_the_returned_position(
         assert warm.iterations == 0
         for solution in (cold, warm):
             problem = model.problem(params, posture)
-            inertia = solver.Factorization(problem.hessian(problem.free(solution.position))).negative_pivots
+            inertia = factorization.Factorization(problem.hessian(problem.free(solution.position))).negative_pivots
             assert solution.negative_eigenvalues == inertia == 0

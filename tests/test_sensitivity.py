@@ -3,17 +3,16 @@
 from types import SimpleNamespace
 
 import numpy as np
-
-from breastcore.forward import ForwardModel
-from breastcore.identify import IdentificationOptions
-from breastcore.mesh import mesh_level
-from breastcore.observation import MeasurementModel
-from breastcore.parameters import Parameters
-from breastcore.postures import paper_postures
-from breastcore.sensitivity import finite_sensitivity
-from breastcore.uncertainty import linearised_sensitivity
-
 from linear_model import LinearModel  # tests/linear_model.py
+
+from breastcore.forward.model import ForwardModel
+from breastcore.inverse.operator import MeasurementModel
+from breastcore.inverse.options import IdentificationOptions
+from breastcore.inverse.sensitivity import finite_sensitivity
+from breastcore.inverse.uncertainty import linearised_sensitivity
+from breastcore.model.mesh import mesh_level
+from breastcore.model.parameters import Parameters
+from breastcore.model.postures import paper_postures
 
 TRUTH = np.array([0.0562, 0.05, 1000.0, 150.0, 8000.0, 1600.0])
 

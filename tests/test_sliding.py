@@ -5,8 +5,8 @@ import math
 import numpy as np
 import pytest
 
-from breastcore.parameters import Parameters
-from breastcore.sliding import sliding_margin, slip_threshold
+from breastcore.model.parameters import Parameters
+from breastcore.model.sliding import sliding_margin, slip_threshold
 
 
 def test_slip_threshold_is_the_weight_per_base_area_of_the_undeformed_cap():
@@ -31,7 +31,7 @@ def test_slip_threshold_scales_with_size_density_and_gravity():
 
 
 def test_the_regime_warning_fires_below_the_bound_and_not_above():
-    from breastcore.sliding import REGIME_MARGIN, regime_warning, sliding_margin, slip_threshold
+    from breastcore.model.sliding import REGIME_MARGIN, regime_warning, sliding_margin, slip_threshold
     base = Parameters()
     threshold = slip_threshold(base)
     below = base.replace(chassaignac=0.99 * REGIME_MARGIN * threshold)
@@ -44,18 +44,19 @@ def test_the_regime_warning_fires_below_the_bound_and_not_above():
 def test_solutions_and_estimates_record_their_margin_and_warning(tmp_path):
     """A patient estimate below the bound warns in its dataset, its log and show; one above does not."""
     import logging
-    from breastcore.commands.browse import describe
-    from breastcore.datasets import open_dataset
-    from breastcore.identification_dataset import identification_dataset
-    from breastcore.identify import identify
-    from breastcore.mesh import mesh_level
-    from breastcore.observation import MeasurementModel
-    from breastcore.patient import PatientMeasurements
+
+    from breastcore.cli.browse import describe
+    from breastcore.inverse.identify import identify
+    from breastcore.inverse.measurements import QUANTITIES
+    from breastcore.inverse.operator import MeasurementModel
+    from breastcore.inverse.options import IdentificationOptions
+    from breastcore.io.datasets import open_dataset
+    from breastcore.io.identification import identification_dataset
+    from breastcore.io.patient import PatientMeasurements
+    from breastcore.model.mesh import mesh_level
+    from breastcore.model.postures import paper_postures
+    from breastcore.model.sliding import sliding_margin
     from breastcore.problem import ProblemSpec
-    from breastcore.identification_options import IdentificationOptions
-    from breastcore.measure import QUANTITIES
-    from breastcore.postures import paper_postures
-    from breastcore.sliding import sliding_margin
     from breastcore.stages.identify import log_verdict
     mesh = mesh_level("coarse")
     for c, warned in ((100.0, True), (2000.0, False)):

@@ -53,7 +53,7 @@ def test_grid_sampling_covers_every_value():
 
 
 def test_verify_rejects_an_unconverged_state():
-    from breastcore.postures import parse_posture
+    from breastcore.model.postures import parse_posture
     params = grid.parameters(grid.PAPER)
     model = grid._model("coarse")
     x = model.reference(params.R, params.H)                  # gravity acts: far from equilibrium
@@ -71,8 +71,9 @@ def test_sampled_grid_in_worker_processes():
 def test_factorisations_sharing_a_pattern_stay_correct():
     """The PARDISO handle of a pattern holds one numeric factor; an older factor refactorises."""
     import numpy as np
-    from breastcore.postures import parse_posture
-    from breastcore.solver import Factorization
+
+    from breastcore.linalg.factorization import Factorization
+    from breastcore.model.postures import parse_posture
     model = grid._model("coarse")
     params = grid.parameters(grid.PAPER)
     problem = model.problem(params, parse_posture("bent45"))
@@ -91,10 +92,11 @@ def test_factorisations_sharing_a_pattern_stay_correct():
 
 def test_parallel_postures_give_identical_results():
     import numpy as np
-    from breastcore.forward import ForwardModel
-    from breastcore.mesh import mesh_level
-    from breastcore.parameters import Parameters
-    from breastcore.postures import paper_postures
+
+    from breastcore.forward.model import ForwardModel
+    from breastcore.model.mesh import mesh_level
+    from breastcore.model.parameters import Parameters
+    from breastcore.model.postures import paper_postures
     mesh = mesh_level("coarse")
     serial = ForwardModel(mesh).solve_postures(Parameters(), paper_postures())
     parallel = ForwardModel(mesh).solve_postures(Parameters(), paper_postures(), processes=2)
@@ -105,7 +107,8 @@ def test_parallel_postures_give_identical_results():
 
 def test_solve_error_survives_pickling():
     import pickle
-    from breastcore.forward import SolveError
+
+    from breastcore.forward.records import SolveError
     err = SolveError("continuation stalled", iterations=3, gradient_norm=1.0, tolerance=1e-9, min_det_F=0.5,
                      load_factor=0.25, smoothing=1e-4, posture="fours")
     back = pickle.loads(pickle.dumps(err))
@@ -114,8 +117,8 @@ def test_solve_error_survives_pickling():
 
 def test_warm_start_after_changing_all_six_parameters_is_short():
     """The start is rescaled onto the new fold (R, H move it): a few Newton steps, one continuation step."""
-    from breastcore.parameters import Parameters
-    from breastcore.postures import paper_postures
+    from breastcore.model.parameters import Parameters
+    from breastcore.model.postures import paper_postures
     model = grid._model("coarse")
     params = Parameters()
     changed = params.with_identified([v * 1.01 for v in params.identified()])

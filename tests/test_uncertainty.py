@@ -9,7 +9,7 @@ so the least-squares estimate under relative noise ``M̄ = M(Λ*)(1 + ε)`` is
 import numpy as np
 import pytest
 
-from breastcore.uncertainty import Z95, conditioning, intervals, linearised_sensitivity, log_covariance
+from breastcore.inverse.uncertainty import Z95, conditioning, intervals, linearised_sensitivity, log_covariance
 
 N_MEAS, N_PAR = 15, 6
 TRUTH = np.array([0.0562, 0.05, 1000.0, 150.0, 8000.0, 1600.0])

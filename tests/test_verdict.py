@@ -2,19 +2,26 @@
 patients of the issue, end to end through the command line."""
 
 import json
-from collections import Counter
 import subprocess
 import sys
 import warnings
+from collections import Counter
 
 import numpy as np
 import pytest
 import yaml
 from scipy.stats import chi2
 
-from breastcore.datasets import open_dataset
-from breastcore.uncertainty import DETERMINED_FACTOR, Z95, determined, interval_decades, intervals, log_covariance
-from breastcore.verdict import FIT_QUANTILE, fit_verdict
+from breastcore.inverse.uncertainty import (
+    DETERMINED_FACTOR,
+    Z95,
+    determined,
+    interval_decades,
+    intervals,
+    log_covariance,
+)
+from breastcore.inverse.verdict import FIT_QUANTILE, fit_verdict
+from breastcore.io.datasets import open_dataset
 
 LABELS = [f"{p}:{q}" for p in ("standing", "bent45", "fours")
           for q in ("volume", "area", "height", "frontal_depth", "back_depth")]
@@ -138,8 +145,8 @@ def test_an_area_of_one_square_centimetre_is_refused_before_any_solve(tmp_path):
     ("area", 1, True, 4, {"misfit", "not_converged"}, "standing:area"),
 ])
 def test_absurd_patients_are_never_labelled_a_success(tmp_path, quantity, value, allow, iterations, verdicts, worst):
-    from breastcore.commands.browse import describe
-    from breastcore.scene import parameter_table
+    from breastcore.cli.browse import describe
+    from breastcore.report.summaries import parameter_table
     measured = tmp_path / "m.nc"
     out = cli("measure", "--patient", patient_file(tmp_path, "standing", quantity, value), "--out", measured,
               *(["--allow-implausible"] if allow else []))
@@ -166,8 +173,8 @@ def _identification(path, verdict, success, determined=(1, 1, 1, 1, 1, 1), error
     """An identification dataset with what the scene summaries, parameter_table and show read."""
     import xarray as xr
 
-    from breastcore.datasets import provenance, write_netcdf
-    from breastcore.parameters import IDENTIFIED
+    from breastcore.io.datasets import provenance, write_netcdf
+    from breastcore.model.parameters import IDENTIFIED
     truth = np.array([0.0562, 0.05, 1000.0, 150.0, 8000.0, 1600.0])
     estimate = truth * (1 + error)
     ok = np.array(determined, bool)
@@ -194,7 +201,7 @@ def _identification(path, verdict, success, determined=(1, 1, 1, 1, 1, 1), error
 
 def test_the_error_table_counts_fit_verdicts_not_optimiser_exits(tmp_path):
     """Each run met the optimiser's stopping test (success = 1); its verdict is what is counted."""
-    from breastcore.scene import error_table, synthetic_summary
+    from breastcore.report.summaries import error_table, synthetic_summary
     verdicts = {("coarse", 0): "consistent", ("coarse", 1): "misfit", ("coarse", 2): "misfit",
                 ("medium", 0): "consistent", ("medium", 1): "consistent", ("medium", 2): "not_converged"}
     runs, paths = [], []
@@ -213,8 +220,8 @@ def test_the_error_table_counts_fit_verdicts_not_optimiser_exits(tmp_path):
 
 
 def test_show_and_the_job_log_name_the_undetermined_parameters_alike(tmp_path, caplog):
-    from breastcore.commands.browse import describe
-    from breastcore.datasets import open_dataset
+    from breastcore.cli.browse import describe
+    from breastcore.io.datasets import open_dataset
     from breastcore.stages.identify import log_verdict
     ds = open_dataset(_identification(tmp_path / "id.nc", "consistent", True, determined=(1, 1, 0, 1, 0, 1)))
     ds.attrs["message"] = "`gtol` termination condition is satisfied"          # the optimiser's, which the log names
@@ -229,9 +236,9 @@ def test_show_and_the_job_log_name_the_undetermined_parameters_alike(tmp_path, c
 def test_an_undetermined_parameter_is_marked_in_show_and_the_parameters_csv(tmp_path):
     import pandas as pd
 
-    from breastcore.commands.browse import describe
-    from breastcore.datasets import open_dataset
-    from breastcore.scene import parameter_table
+    from breastcore.cli.browse import describe
+    from breastcore.io.datasets import open_dataset
+    from breastcore.report.summaries import parameter_table
     ds = open_dataset(_identification(tmp_path / "id.nc", "consistent", True, determined=(1, 1, 0, 1, 0, 1)))
     shown = describe(ds)
     line = next(l for l in shown.splitlines() if "not determined by these measurements" in l)

@@ -5,16 +5,16 @@ import json
 import os
 import re
 import stat
-from collections import Counter
 import subprocess
 import sys
+from collections import Counter
 from pathlib import Path
 
 import pytest
 import xarray as xr
 import yaml
 
-from breastcore.parameters import Parameters
+from breastcore.model.parameters import Parameters
 
 ROOT = Path(__file__).resolve().parents[1]
 SNAKEMAKE = str(Path(sys.executable).parent / "snakemake")
@@ -258,7 +258,7 @@ def test_lint_is_clean():
 
 
 def test_list_and_show_browse_every_dataset(workdir, capsys):
-    from breastcore.cli import main
+    from breastcore.cli.main import main
     assert main(["list", str(workdir / "results")]) == 0
     rows = {line.split()[0]: line.split()[1:] for line in capsys.readouterr().out.splitlines()[1:]}
     files = sorted((workdir / "results").rglob("*.nc"))
@@ -300,7 +300,7 @@ def test_list_and_show_browse_every_dataset(workdir, capsys):
 
 
 def test_datasets_doc_is_rendered_from_this_workflow(workdir):
-    from breastcore.schema_doc import render
+    from breastcore.report.schema_doc import render
     page = render(workdir / "results")
     doc = ROOT / "docs/datasets.md"
     if os.environ.get("BREASTCORE_WRITE_DATASETS_DOC") == "1":
@@ -310,7 +310,7 @@ def test_datasets_doc_is_rendered_from_this_workflow(workdir):
 
 
 def test_every_dataset_follows_the_documented_schema(workdir):
-    from breastcore.schema_doc import documented_schema, section_of
+    from breastcore.report.schema_doc import documented_schema, section_of
     schema = documented_schema((ROOT / "docs/datasets.md").read_text())
     for path in (workdir / "results").rglob("*.nc"):
         with xr.open_dataset(path) as ds:
@@ -361,8 +361,8 @@ def test_a_scene_plans_only_what_it_needs(tmp_path):
     no truth and no sensitivity, and shapes only its measured postures (one at its own
     angle); a forward scene solves only its listed postures; a synthetic truth solves only
     its scene's postures."""
-    from breastcore.workflow_config import validate_config
-    from breastcore.workflow_plan import Plan
+    from breastcore.pipeline.config import validate_config
+    from breastcore.pipeline.plan import Plan
     postures = dict(TINY["scenes"]["alice"]["postures"])
     postures["lean"] = {"angle": 30, **postures.pop("bent45")}       # a posture of the patient's own
     config = {"scenes": {"p": {**TINY["scenes"]["alice"], "postures": postures, "sensitivity": "none"}}}

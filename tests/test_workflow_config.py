@@ -9,8 +9,9 @@ from pathlib import Path
 import pytest
 import yaml
 
-from breastcore.workflow_config import ConfigError, validate_config
-from breastcore.workflow_plan import Plan
+from breastcore.pipeline.config import validate_config
+from breastcore.pipeline.config_files import ConfigError
+from breastcore.pipeline.plan import Plan
 
 ROOT = Path(__file__).resolve().parents[1]
 SCHEMA = ROOT / "workflow/schemas/config.schema.yaml"
@@ -170,7 +171,7 @@ def test_a_bad_config_on_the_command_line_is_one_line_too(tmp_path):
 
 
 def test_a_syntax_error_names_the_file_and_line(tmp_path):
-    from breastcore.workflow_config import check_config_files
+    from breastcore.pipeline.config_files import check_config_files
     path = tmp_path / "c.yaml"
     for text, where in [("scenes:\n  a:\n\tkind: forward\n", "line 3, column 1: a tab"),
                         ("a: 1\n b: 2\n", "line 2, column 3: mapping values are not allowed here"),
@@ -185,7 +186,7 @@ def test_a_syntax_error_names_the_file_and_line(tmp_path):
 
 
 def test_repeated_key_is_refused_with_both_lines(tmp_path):
-    from breastcore.workflow_config import check_config_files
+    from breastcore.pipeline.config_files import check_config_files
     path = tmp_path / "c.yaml"
     path.write_text("scenes:\n  a:\n    kind: forward\n    postures: [standing]\n  b: {kind: forward}\n"
                     "  a:\n    kind: patient\n")
@@ -254,7 +255,7 @@ def test_exponent_yaml_reads_as_text_gets_a_hint_that_works(written):
 
 
 def test_max_starts_keeps_the_first_guesses_of_the_full_draw():
-    from breastcore.workflow_plan import Plan
+    from breastcore.pipeline.plan import Plan
     paper = yaml.safe_load((ROOT / "config/paper.yaml").read_text())
     full = validate_config({**copy.deepcopy(DEFAULT), **paper, "scenes": paper["scenes"]}, SCHEMA)
     capped = validate_config({**copy.deepcopy(full), "max_starts": 2}, SCHEMA)
@@ -291,11 +292,11 @@ def test_compute_hash_covers_exactly_the_modules_the_compute_rules_import(tmp_pa
 
     root = Path(breastcore.__file__).parent
     for stage in breastcore.STAGES:
-        entries = [f"stages.{stage}", "logs", "keys"]
+        entries = [f"stages.{stage}", "pipeline.logs", "pipeline.keys"]
         names = {str(p.relative_to(root)) for p in _imported_modules(root, entries)}
-        assert not names & {"results_page.py", "plots.py", "scene.py", "workflow_plan.py"}
+        assert not names & {"report/results_page.py", "report/plots.py", "report/summaries.py", "pipeline/plan.py"}
         # every package module that importing the stage's script modules loads is in the closure
-        code = f"import sys, breastcore.stages.{stage}, breastcore.logs, breastcore.keys; " \
+        code = f"import sys, breastcore.stages.{stage}, breastcore.pipeline.logs, breastcore.pipeline.keys; " \
                "print(' '.join(m.__file__ for n, m in sys.modules.items() if n.startswith('breastcore.')))"
         loaded = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                                 check=True).stdout.split()
@@ -303,14 +304,14 @@ def test_compute_hash_covers_exactly_the_modules_the_compute_rules_import(tmp_pa
 
 
 @pytest.mark.parametrize("module, changed", [
-    ("stability.py", {"stability"}),
-    ("identify.py", {"identify", "sensitivity", "extreme"}),
-    ("forward.py", {"solve", "measure", "identify", "sensitivity", "stability", "extreme", "calibrate", "uniqueness"}),
-    ("extreme_guesses.py", {"extreme"}),
-    ("calibration.py", {"calibrate", "uniqueness"}),
-    ("calibration_scene.py", set()),
-    ("results_page.py", set()),
-    ("workflow_plan.py", set()),
+    ("studies/stability.py", {"stability"}),
+    ("inverse/identify.py", {"identify", "sensitivity", "extreme"}),
+    ("forward/model.py", {"solve", "measure", "identify", "sensitivity", "stability", "extreme", "calibrate", "uniqueness"}),
+    ("studies/extreme_guesses.py", {"extreme"}),
+    ("studies/calibration.py", {"calibrate", "uniqueness"}),
+    ("report/calibration.py", set()),
+    ("report/results_page.py", set()),
+    ("pipeline/plan.py", set()),
 ])
 def test_editing_a_module_changes_the_code_hash_of_the_stages_that_import_it_only(tmp_path, module, changed):
     """Editing stability.py used to rerun every solve: one hash covered every compute module."""
@@ -336,7 +337,7 @@ def test_every_library_import_is_a_declared_dependency():
     from pathlib import Path
 
     try:
-        import tomllib                                   # Python >= 3.11
+        import tomllib  # Python >= 3.11
     except ModuleNotFoundError:                          # 3.10: the same parser as tomli, if installed
         tomllib = pytest.importorskip("tomli", reason="Python 3.10 without tomli: pyproject.toml not readable")
 
@@ -356,7 +357,7 @@ def test_every_library_import_is_a_declared_dependency():
         needed -= set(sys.stdlib_module_names) | {"breastcore"}
         if "to_markdown" in source:
             needed.add("tabulate")
-        allowed = declared | (workflow if path.name == "workflow_config.py" else set())
+        allowed = declared | (workflow if path.relative_to(root).as_posix() == "pipeline/config.py" else set())
         missing = {distribution.get(n, n).lower() for n in needed} - allowed
         assert not missing, f"{path.name} imports {missing}, not declared in pyproject.toml"
 
@@ -442,7 +443,7 @@ def test_a_copy_drops_a_scene_with_null(tmp_path):
 def test_null_is_offered_exactly_for_the_keys_that_may_be_null(tmp_path):
     """Each key a refusal says to drop with null gives a valid config when dropped; each it says to
     give would be refused by the validation if dropped."""
-    from breastcore.workflow_config import check_overlays, drop_keys
+    from breastcore.pipeline.overlays import check_overlays, drop_keys
     base = tmp_path / "config.yaml"
     base.write_text((ROOT / "config.yaml").read_text())
     paths = [("scenes", "example_patient", "postures", "fours"), ("scenes", "example_patient", "postures"),
@@ -520,7 +521,7 @@ def test_the_opt_in_configs_still_merge_into_config_yaml(tmp_path, target, files
 
 
 def test_check_overlays_compares_each_file_with_what_is_merged_before_it(tmp_path):
-    from breastcore.workflow_config import check_overlays, drop_keys
+    from breastcore.pipeline.overlays import check_overlays, drop_keys
     base = tmp_path / "config.yaml"
     base.write_text("scenes:\n  a: {kind: forward, mesh: coarse, postures: [standing]}\nsolver: {method: newton}\n")
     (tmp_path / "one.yaml").write_text("scenes:\n  b: {kind: forward, mesh: medium}\n")
@@ -565,7 +566,7 @@ def test_check_overlays_compares_each_file_with_what_is_merged_before_it(tmp_pat
 
 
 def test_a_config_error_ends_the_program_with_one_line():
-    from breastcore.workflow_config import config_errors_exit
+    from breastcore.pipeline.overlays import config_errors_exit
     with pytest.raises(SystemExit) as info:
         with config_errors_exit():
             raise ConfigError("config key x: bad")
@@ -591,3 +592,26 @@ def test_same_mesh_truth_solves_each_levels_data_on_that_level():
     assert not any("direct" in path for path in plan.scene_datasets("same"))
     msg = _bad(lambda c: c["scenes"].update(same={"kind": "synthetic", "truth_mesh": "same", "tables": ["levels"]}))
     assert "scenes.same.tables" in msg and "same" in msg
+
+
+def test_the_schema_defaults_are_the_code_defaults():
+    """One source of defaults: the schema's copies (for whoever reads the YAML) must equal
+    PARAMETER_INFO and the options dataclasses, which the README's tables are generated from."""
+    import dataclasses
+
+    from breastcore.forward.options import SolverOptions
+    from breastcore.inverse.options import IdentificationOptions
+    from breastcore.model.parameters import IDENTIFIED, PARAMETER_INFO
+    from breastcore.pipeline.config import DEFAULT_SCHEMA, load_schema
+
+    schema = load_schema(DEFAULT_SCHEMA)
+    definitions = schema["definitions"]
+    constants = schema["properties"]["constants"]["properties"]
+    for name, info in PARAMETER_INFO.items():
+        where = definitions["lambda"]["properties"] if name in IDENTIFIED else constants
+        assert where[name]["default"] == info.default, name
+    for cls, section in ((SolverOptions, schema["properties"]["solver"]["properties"]),
+                         (IdentificationOptions, definitions["identification"]["properties"])):
+        for f in dataclasses.fields(cls):
+            if f.name in section:
+                assert section[f.name]["default"] == f.default, (cls.__name__, f.name)

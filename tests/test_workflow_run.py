@@ -1,4 +1,4 @@
-"""make run (breastcore.workflow_run): a killed run is recovered, never a live one (issue #19)."""
+"""make run (breastcore.pipeline.run): a killed run is recovered, never a live one (issue #19)."""
 
 import os
 import shlex
@@ -13,8 +13,14 @@ import pytest
 import xarray as xr
 import yaml
 
-from breastcore.workflow_run import (_option_values, is_snakemake, lock_files, recover, snakemake_directory,
-                                     snakemake_processes)
+from breastcore.pipeline.run import (
+    _option_values,
+    is_snakemake,
+    lock_files,
+    recover,
+    snakemake_directory,
+    snakemake_processes,
+)
 
 ROOT = Path(__file__).resolve().parents[1]
 SNAKEMAKE = str(Path(sys.executable).parent / "snakemake")
@@ -40,7 +46,7 @@ def make_run_command(*args):
     out = subprocess.run(["make", "-s", "-n", "-C", str(ROOT), "-o", f"{binary}/.installed", f"BIN={binary}",
                           "run", f"ARGS={shlex.join(args)}"], capture_output=True, text=True, check=True)
     command = shlex.split(out.stdout.strip())
-    assert command[:4] == [f"{binary}/python", "-m", "breastcore.workflow_run", "--cores"], out.stdout
+    assert command[:4] == [f"{binary}/python", "-m", "breastcore.pipeline.run", "--cores"], out.stdout
     return [sys.executable, *command[1:]]
 
 
@@ -62,7 +68,7 @@ def test_option_values_read_snakemake_command_lines():
     (["snakemake", "-n"], True),
     (["/v/bin/python", "-m", "snakemake", "--target-jobs", "x"], True),    # a job Snakemake spawns
     (["/v/bin/python", "/w/.snakemake/scripts/tmpab12.identify.py"], True),  # a script: job
-    (["/v/bin/python", "-m", "breastcore.workflow_run", "--cores", "2"], False),
+    (["/v/bin/python", "-m", "breastcore.pipeline.run", "--cores", "2"], False),
     (["/v/bin/python", "/v/bin/pytest", "tests/test_workflow.py", "-k", "snakemake"], False),
     (["make", "run"], False)])
 def test_is_snakemake(argv, expected):
@@ -150,7 +156,7 @@ def test_a_job_whose_snakemake_was_killed_is_waited_for_then_the_lock_removed(tm
 
     extra, note = recover(workdir, proc=str(proc), sleep=sleep, say=said.append)
     assert len(waits) == 3 and len(said) == 1, said          # said once, not at every look
-    assert said[0].startswith(f"breastcore.workflow_run: job process 13 of a killed Snakemake run still works in "
+    assert said[0].startswith(f"breastcore.pipeline.run: job process 13 of a killed Snakemake run still works in "
                               f"{workdir}") and "waiting for it to end (or kill 13)" in said[0]
     assert extra == ["--rerun-incomplete"] and lock_files(workdir) == []
     assert "removed the lock a killed Snakemake run left" in note

@@ -2,10 +2,11 @@
 
 from __future__ import annotations
 
-from ..calibration import level_points_dataset
-from ..datasets import mesh_from_dataset, open_dataset, write_netcdf
-from ..forward import ForwardModel, SolverOptions
-from ..postures import Posture
+from breastcore.forward.model import ForwardModel
+from breastcore.forward.options import SolverOptions
+from breastcore.io.datasets import mesh_from_dataset, open_dataset, write_netcdf
+from breastcore.model.postures import Posture
+from breastcore.studies.calibration import level_points_dataset
 
 
 def run_calibrate(spec, mesh_path, out, config_hash=None):

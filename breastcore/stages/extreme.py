@@ -2,8 +2,8 @@
 
 from __future__ import annotations
 
-from ..datasets import mesh_from_dataset, open_dataset, write_netcdf
-from ..extreme_guesses import extreme_guess_study
+from breastcore.io.datasets import mesh_from_dataset, open_dataset, write_netcdf
+from breastcore.studies.extreme_guesses import extreme_guess_study
 
 
 def run_extreme_guesses(spec, mesh_path, out, config_hash=None):

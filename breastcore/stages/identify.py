@@ -5,16 +5,16 @@ from __future__ import annotations
 import json
 import logging
 
-from ..datasets import mesh_from_dataset, open_dataset, write_netcdf
-from ..forward import SolverOptions
-from ..identification_dataset import identification_dataset
-from ..identification_options import IdentificationOptions
-from ..identify import identify
-from ..observation import MeasurementModel
-from ..parameters import IDENTIFIED, Parameters
-from ..problem import ProblemSpec
-from ..targets import target_from_dataset, truth_from_dataset
-from ..uncertainty import UNDETERMINED, undetermined
+from breastcore.forward.options import SolverOptions
+from breastcore.inverse.identify import identify
+from breastcore.inverse.operator import MeasurementModel
+from breastcore.inverse.options import IdentificationOptions
+from breastcore.inverse.uncertainty import UNDETERMINED, undetermined
+from breastcore.io.datasets import mesh_from_dataset, open_dataset, write_netcdf
+from breastcore.io.identification import identification_dataset
+from breastcore.io.targets import target_from_dataset, truth_from_dataset
+from breastcore.model.parameters import IDENTIFIED, Parameters
+from breastcore.problem import ProblemSpec
 
 log = logging.getLogger(__name__)
 
@@ -29,14 +29,36 @@ def run_identify(spec, measure_path, mesh_path, out, config_hash=None):
                           solver=SolverOptions(**spec["solver"]), postures=target.postures,
                           measurement_set=target.measurement_set,
                           identification=IdentificationOptions(**spec["identification"]))
-    mm = MeasurementModel.from_problem(problem, mesh_from_dataset(mesh_ds))
-    result = identify(mm, target.values, initial, problem.identification, target.weights)
-    truth = truth_from_dataset(ds_m)
-    ds = identification_dataset(result, mm, target, problem, initial=initial,
-                                truth=[truth[k] for k in IDENTIFIED] if truth else None,
-                                mesh_level=mesh_ds.attrs["mesh_level"], config_hash=config_hash)
+    ds = identify_target(problem, mesh_from_dataset(mesh_ds), target, truth_from_dataset(ds_m), initial,
+                         mesh_level=mesh_ds.attrs["mesh_level"], config_hash=config_hash)
     write_netcdf(ds, out)
     log_verdict(ds)
+
+
+def identify_target(problem, mesh, target, truth, initial, *, mesh_level, processes=1, config_hash=None):
+    """The identification dataset of ``target`` on ``mesh``: the one path of the workflow and the CLI.
+
+    Parameters
+    ----------
+    problem : ProblemSpec
+        Constants, solver, postures, measurement set and identification options.
+    mesh : CapMesh
+    target : Target
+        The measurements (:func:`~breastcore.io.targets.target_from_dataset`).
+    truth : dict or None
+        Generating parameters of synthetic measurements (relative errors are stored).
+    initial : sequence of 6 float
+        Initial guess of the identified parameters, in their units.
+    mesh_level : str
+        Recorded in the dataset.
+    processes : int
+        Postures solved in this many processes.
+    """
+    mm = MeasurementModel.from_problem(problem, mesh, processes=processes)
+    result = identify(mm, target.values, initial, problem.identification, target.weights)
+    return identification_dataset(result, mm, target, problem, initial=initial,
+                                  truth=[truth[k] for k in IDENTIFIED] if truth else None,
+                                  mesh_level=mesh_level, config_hash=config_hash)
 
 
 def log_verdict(ds):

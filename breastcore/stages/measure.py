@@ -6,10 +6,10 @@ import logging
 
 import numpy as np
 
-from ..datasets import open_dataset, write_netcdf
-from ..patient import PatientMeasurements, patient_from_dict
-from ..problem import ProblemSpec
-from ..targets import measure_solution, measurement_dataset
+from breastcore.io.datasets import open_dataset, write_netcdf
+from breastcore.io.patient import PatientMeasurements, patient_from_dict
+from breastcore.io.targets import measure_solution, measurement_dataset
+from breastcore.problem import ProblemSpec
 
 log = logging.getLogger(__name__)
 

@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import logging
 
-from ..datasets import mesh_dataset, write_netcdf
-from ..mesh import H0, LEVEL_MESH_SIZE, R0, mesh_cap
+from breastcore.io.datasets import mesh_dataset, write_netcdf
+from breastcore.model.mesh import H0, LEVEL_MESH_SIZE, R0, mesh_cap
 
 log = logging.getLogger(__name__)
 

@@ -2,10 +2,10 @@
 
 from __future__ import annotations
 
-from ..datasets import open_dataset, write_netcdf
-from ..sensitivity import finite_sensitivity, sensitivity_dataset
-from ..study import problem_from_identification
-from ..uncertainty import linearised_sensitivity
+from breastcore.inverse.sensitivity import finite_sensitivity, sensitivity_dataset
+from breastcore.inverse.uncertainty import linearised_sensitivity
+from breastcore.io.datasets import open_dataset, write_netcdf
+from breastcore.io.rebuild import problem_from_identification
 
 
 def run_sensitivity(spec, identify_path, out, config_hash=None, processes=1):

@@ -2,13 +2,12 @@
 
 from __future__ import annotations
 
-from ..datasets import mesh_from_dataset, open_dataset, write_netcdf
-from ..forward import SolverOptions
-from ..mesh import refold
-from ..parameters import Parameters
-from ..postures import Posture
-from ..problem import ProblemSpec
-from ..solution import solution_dataset, solve_postures
+from breastcore.forward.options import SolverOptions
+from breastcore.io.datasets import mesh_from_dataset, open_dataset, write_netcdf
+from breastcore.io.solution import solution_dataset, solve_postures
+from breastcore.model.parameters import Parameters
+from breastcore.model.postures import Posture
+from breastcore.problem import ProblemSpec
 
 
 def run_solve(spec, mesh_path, out, config_hash=None):
@@ -19,6 +18,6 @@ def run_solve(spec, mesh_path, out, config_hash=None):
     model = problem.forward_model(mesh_from_dataset(mesh_ds))
     params = problem.parameters
     solutions = solve_postures(model, params, problem.postures)
-    shown = refold(model.map.mesh_at(params.R, params.H), params.fold_angle)
+    shown = model.mesh_at(params)
     write_netcdf(solution_dataset(shown, problem, solutions, mesh_level=mesh_ds.attrs["mesh_level"],
                                   config_hash=config_hash), out)

@@ -4,12 +4,12 @@ from __future__ import annotations
 
 import logging
 
-from ..datasets import mesh_from_dataset, open_dataset, write_netcdf
-from ..forward import SolverOptions
-from ..parameters import Parameters
-from ..postures import parse_posture
-from ..problem import ProblemSpec
-from ..stability import run_case, stability_dataset
+from breastcore.forward.options import SolverOptions
+from breastcore.io.datasets import mesh_from_dataset, open_dataset, write_netcdf
+from breastcore.model.parameters import Parameters
+from breastcore.model.postures import parse_posture
+from breastcore.problem import ProblemSpec
+from breastcore.studies.stability import run_case, stability_dataset
 
 log = logging.getLogger(__name__)
 

@@ -1,9 +1,10 @@
-# The job plan (breastcore.workflow_plan) and helpers shared by the rules.
+# The job plan (breastcore.pipeline.plan) and helpers shared by the rules.
 import os
 
 from breastcore import STAGES, source_hash, stage_hash
-from breastcore.mesh import LEVEL_NODE_COUNTS
-from breastcore.workflow_plan import Plan
+from breastcore.model.mesh import LEVEL_NODE_COUNTS
+from breastcore.pipeline.plan import Plan
+from breastcore.pipeline.resources import DEFAULT_MEM_MB, DEFAULT_MINUTES, THREADS, mem_mb, runtime_minutes
 
 PLAN = Plan(config)
 RESULTS = PLAN.results
@@ -15,7 +16,7 @@ CODE = source_hash()
 
 wildcard_constraints:
     name="[^/]+",
-    key="[0-9a-f]{10}",
+    file="[A-Za-z0-9_.+-]*[0-9a-f]{10}",
     scene="[A-Za-z][A-Za-z0-9_-]*",
     posture="[A-Za-z][A-Za-z0-9_-]*",
 
@@ -43,15 +44,36 @@ LEVEL_PRIORITY = {level: rank for rank, level in enumerate(LEVEL_NODE_COUNTS)}
 
 
 def identify_priority(wildcards):
-    path = f"{RESULTS}/identify/{wildcards.key}.nc"
+    path = f"{RESULTS}/identify/{wildcards.file}.nc"
     if path in FINITE_SENSITIVITY_BASES:
         return 100
     return LEVEL_PRIORITY.get(PLAN.jobs["mesh"][identify_spec(wildcards)["mesh"]].get("level"), 0)
 
 
 def sensitivity_priority(wildcards):
-    return 100 if PLAN.jobs["sensitivity"][f"{RESULTS}/sensitivity/{wildcards.key}.nc"]["finite"] else 0
+    return 100 if PLAN.jobs["sensitivity"][f"{RESULTS}/sensitivity/{wildcards.file}.nc"]["finite"] else 0
 
 
 def identify_spec(wildcards):
-    return PLAN.jobs["identify"][f"{RESULTS}/identify/{wildcards.key}.nc"]
+    return PLAN.jobs["identify"][f"{RESULTS}/identify/{wildcards.file}.nc"]
+
+
+def job_level(stage):
+    """The mesh level of the job behind a wildcard match (None: a patient's measurements)."""
+    return lambda wildcards: PLAN.level_of(f"{RESULTS}/{stage}/{wildcards.file}.nc")
+
+
+def job_mem_mb(stage):
+    """Resources function: the job's memory request, MB (breastcore.pipeline.resources)."""
+    level = job_level(stage)
+    return lambda wildcards: mem_mb(level(wildcards))
+
+
+def job_runtime(stage):
+    """Resources function: the job's run-time request, minutes (breastcore.pipeline.resources)."""
+    level = job_level(stage)
+    if stage == "sensitivity":
+        return lambda wildcards: runtime_minutes(
+            "finite_sensitivity" if PLAN.jobs["sensitivity"][f"{RESULTS}/sensitivity/{wildcards.file}.nc"]["finite"]
+            else "sensitivity", level(wildcards))
+    return lambda wildcards: runtime_minutes(stage, level(wildcards))

@@ -2,9 +2,13 @@ rule identify:
     input:
         measurements=lambda w: identify_spec(w)["measurements"],
         mesh=lambda w: identify_spec(w)["mesh"],
-    output: f"{RESULTS}/identify/{{key}}.nc"
-    log: f"{RESULTS}/logs/identify/{{key}}.log"
-    benchmark: f"{RESULTS}/benchmarks/identify/{{key}}.tsv"
+    output: f"{RESULTS}/identify/{{file}}.nc"
+    log: f"{RESULTS}/logs/identify/{{file}}.log"
+    benchmark: f"{RESULTS}/benchmarks/identify/{{file}}.tsv"
+    threads: THREADS
+    resources:
+        mem_mb=job_mem_mb("identify"),
+        runtime=job_runtime("identify"),
     priority: identify_priority
     params:
         spec=job("identify"),

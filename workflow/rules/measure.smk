@@ -1,8 +1,12 @@
 rule measure:
-    input: solution=lambda w: PLAN.jobs["measure"][f"{RESULTS}/measure/{w.key}.nc"].get("solution", [])
-    output: f"{RESULTS}/measure/{{key}}.nc"
-    log: f"{RESULTS}/logs/measure/{{key}}.log"
-    benchmark: f"{RESULTS}/benchmarks/measure/{{key}}.tsv"
+    input: solution=lambda w: PLAN.jobs["measure"][f"{RESULTS}/measure/{w.file}.nc"].get("solution", [])
+    output: f"{RESULTS}/measure/{{file}}.nc"
+    log: f"{RESULTS}/logs/measure/{{file}}.log"
+    benchmark: f"{RESULTS}/benchmarks/measure/{{file}}.tsv"
+    threads: THREADS
+    resources:
+        mem_mb=job_mem_mb("measure"),
+        runtime=job_runtime("measure"),
     priority: UPSTREAM_PRIORITY
     params:
         spec=job("measure"),

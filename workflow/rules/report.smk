@@ -5,6 +5,10 @@ rule shape_picture:
     output: report(f"{RESULTS}/scenes/{{scene}}/shape_{{posture}}.png", caption="../report/shape.rst", category="Shapes", subcategory="{scene}")
     log: f"{RESULTS}/logs/scenes/{{scene}}/shape_{{posture}}.log"
     benchmark: f"{RESULTS}/benchmarks/scenes/{{scene}}/shape_{{posture}}.tsv"
+    threads: THREADS
+    resources:
+        mem_mb=DEFAULT_MEM_MB,
+        runtime=DEFAULT_MINUTES,
     params:
         posture=lambda w: w.posture,
         code=CODE,
@@ -17,6 +21,10 @@ rule shape_vtu:
     output: f"{RESULTS}/scenes/{{scene}}/shape_{{posture}}.vtu"
     log: f"{RESULTS}/logs/scenes/{{scene}}/vtu_{{posture}}.log"
     benchmark: f"{RESULTS}/benchmarks/scenes/{{scene}}/vtu_{{posture}}.tsv"
+    threads: THREADS
+    resources:
+        mem_mb=DEFAULT_MEM_MB,
+        runtime=DEFAULT_MINUTES,
     params:
         posture=lambda w: w.posture,
         code=CODE,
@@ -29,6 +37,10 @@ rule convergence_figure:
     output: report(f"{RESULTS}/scenes/{{scene}}/convergence.png", caption="../report/convergence.rst", category="Identification", subcategory="{scene}")
     log: f"{RESULTS}/logs/scenes/{{scene}}/convergence.log"
     benchmark: f"{RESULTS}/benchmarks/scenes/{{scene}}/convergence.tsv"
+    threads: THREADS
+    resources:
+        mem_mb=DEFAULT_MEM_MB,
+        runtime=DEFAULT_MINUTES,
     params:
         code=CODE,
     conda: "../envs/breastcore.yaml"
@@ -40,6 +52,10 @@ rule parameter_table:
     output: report(f"{RESULTS}/scenes/{{scene}}/parameters.csv", caption="../report/parameters.rst", category="Identification", subcategory="{scene}")
     log: f"{RESULTS}/logs/scenes/{{scene}}/parameters.log"
     benchmark: f"{RESULTS}/benchmarks/scenes/{{scene}}/parameters.tsv"
+    threads: THREADS
+    resources:
+        mem_mb=DEFAULT_MEM_MB,
+        runtime=DEFAULT_MINUTES,
     params:
         code=CODE,
     conda: "../envs/breastcore.yaml"
@@ -51,6 +67,10 @@ rule error_table:
     output: report(f"{RESULTS}/scenes/{{scene}}/parameter_errors.csv", caption="../report/errors.rst", category="Identification", subcategory="{scene}")
     log: f"{RESULTS}/logs/scenes/{{scene}}/errors.log"
     benchmark: f"{RESULTS}/benchmarks/scenes/{{scene}}/errors.tsv"
+    threads: THREADS
+    resources:
+        mem_mb=DEFAULT_MEM_MB,
+        runtime=DEFAULT_MINUTES,
     params:
         code=CODE,
     conda: "../envs/breastcore.yaml"
@@ -62,6 +82,10 @@ rule diagnostics_table:
     output: report(f"{RESULTS}/scenes/{{scene}}/diagnostics.csv", caption="../report/diagnostics.rst", category="Solver diagnostics", subcategory="{scene}")
     log: f"{RESULTS}/logs/scenes/{{scene}}/diagnostics.log"
     benchmark: f"{RESULTS}/benchmarks/scenes/{{scene}}/diagnostics.tsv"
+    threads: THREADS
+    resources:
+        mem_mb=DEFAULT_MEM_MB,
+        runtime=DEFAULT_MINUTES,
     params:
         code=CODE,
     conda: "../envs/breastcore.yaml"
@@ -73,6 +97,10 @@ rule sensitivity_figure:
     output: report(f"{RESULTS}/scenes/{{scene}}/sensitivity.png", caption="../report/sensitivity.rst", category="Sensitivity", subcategory="{scene}")
     log: f"{RESULTS}/logs/scenes/{{scene}}/sensitivity.log"
     benchmark: f"{RESULTS}/benchmarks/scenes/{{scene}}/sensitivity_figure.tsv"
+    threads: THREADS
+    resources:
+        mem_mb=DEFAULT_MEM_MB,
+        runtime=DEFAULT_MINUTES,
     params:
         code=CODE,
     conda: "../envs/breastcore.yaml"
@@ -84,6 +112,10 @@ rule error_vs_runtime_figure:
     output: report(f"{RESULTS}/scenes/{{scene}}/error_vs_runtime.png", caption="../report/error_vs_runtime.rst", category="Error against run time", subcategory="{scene}")
     log: f"{RESULTS}/logs/scenes/{{scene}}/error_vs_runtime.log"
     benchmark: f"{RESULTS}/benchmarks/scenes/{{scene}}/error_vs_runtime.tsv"
+    threads: THREADS
+    resources:
+        mem_mb=DEFAULT_MEM_MB,
+        runtime=DEFAULT_MINUTES,
     params:
         code=CODE,
     conda: "../envs/breastcore.yaml"
@@ -95,6 +127,10 @@ rule stability_map:
     output: report(f"{RESULTS}/scenes/{{scene}}/stability_map.png", caption="../report/stability.rst", category="Stability", subcategory="{scene}")
     log: f"{RESULTS}/logs/scenes/{{scene}}/stability_map.log"
     benchmark: f"{RESULTS}/benchmarks/scenes/{{scene}}/stability_map.tsv"
+    threads: THREADS
+    resources:
+        mem_mb=DEFAULT_MEM_MB,
+        runtime=DEFAULT_MINUTES,
     params:
         code=CODE,
     conda: "../envs/breastcore.yaml"
@@ -116,6 +152,10 @@ rule results_page:
     output: "docs/results.md"
     log: f"{RESULTS}/logs/results_page.log"
     benchmark: f"{RESULTS}/benchmarks/results_page.tsv"
+    threads: THREADS
+    resources:
+        mem_mb=DEFAULT_MEM_MB,
+        runtime=DEFAULT_MINUTES,
     params:
         commands=["snakemake --cores 2 results_page" + (f" --configfile {CONFIG_FILES}" if CONFIG_FILES else "")
                   + (f" --config {CONFIG_ARGS}" if CONFIG_ARGS else "")],

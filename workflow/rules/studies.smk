@@ -4,6 +4,10 @@ rule scene_summary:
     output: f"{RESULTS}/scenes/{{scene}}/summary.nc"
     log: f"{RESULTS}/logs/scenes/{{scene}}/summary.log"
     benchmark: f"{RESULTS}/benchmarks/scenes/{{scene}}/summary.tsv"
+    threads: THREADS
+    resources:
+        mem_mb=DEFAULT_MEM_MB,
+        runtime=DEFAULT_MINUTES,
     params:
         spec=lambda w: scene_of(w),
         scene=lambda w: w.scene,
@@ -14,10 +18,14 @@ rule scene_summary:
 
 
 rule stability:
-    input: mesh=lambda w: PLAN.jobs["stability"][f"{RESULTS}/stability/{w.key}.nc"]["mesh"]
-    output: f"{RESULTS}/stability/{{key}}.nc"
-    log: f"{RESULTS}/logs/stability/{{key}}.log"
-    benchmark: f"{RESULTS}/benchmarks/stability/{{key}}.tsv"
+    input: mesh=lambda w: PLAN.jobs["stability"][f"{RESULTS}/stability/{w.file}.nc"]["mesh"]
+    output: f"{RESULTS}/stability/{{file}}.nc"
+    log: f"{RESULTS}/logs/stability/{{file}}.log"
+    benchmark: f"{RESULTS}/benchmarks/stability/{{file}}.tsv"
+    threads: THREADS
+    resources:
+        mem_mb=job_mem_mb("stability"),
+        runtime=job_runtime("stability"),
     params:
         spec=job("stability"),
         code=STAGE_CODE["stability"],
@@ -26,10 +34,14 @@ rule stability:
 
 
 rule extreme_guesses:
-    input: mesh=lambda w: PLAN.jobs["extreme"][f"{RESULTS}/extreme/{w.key}.nc"]["mesh"]
-    output: f"{RESULTS}/extreme/{{key}}.nc"
-    log: f"{RESULTS}/logs/extreme/{{key}}.log"
-    benchmark: f"{RESULTS}/benchmarks/extreme/{{key}}.tsv"
+    input: mesh=lambda w: PLAN.jobs["extreme"][f"{RESULTS}/extreme/{w.file}.nc"]["mesh"]
+    output: f"{RESULTS}/extreme/{{file}}.nc"
+    log: f"{RESULTS}/logs/extreme/{{file}}.log"
+    benchmark: f"{RESULTS}/benchmarks/extreme/{{file}}.tsv"
+    threads: THREADS
+    resources:
+        mem_mb=job_mem_mb("extreme"),
+        runtime=job_runtime("extreme"),
     params:
         spec=job("extreme"),
         code=STAGE_CODE["extreme"],

@@ -1,7 +1,7 @@
 """Snakemake script of the calibrate rule: calls breastcore.stages.calibrate.run_calibrate."""
 
-from breastcore.keys import spec_key
-from breastcore.logs import log_to
+from breastcore.pipeline.keys import spec_key
+from breastcore.pipeline.logs import log_to
 from breastcore.stages.calibrate import run_calibrate
 
 

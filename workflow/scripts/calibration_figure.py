@@ -1,8 +1,8 @@
 """Snakemake script of the calibration_figure rule: the Table-2 residual per level, one line per c."""
 
-from breastcore.calibration_scene import residual_figure
-from breastcore.datasets import open_dataset
-from breastcore.logs import log_to
+from breastcore.io.datasets import open_dataset
+from breastcore.pipeline.logs import log_to
+from breastcore.report.calibration_page import residual_figure
 
 
 def main(snakemake):

@@ -1,8 +1,8 @@
 """Snakemake script of the convergence_figure rule: identification history."""
 
-from breastcore.datasets import open_dataset
-from breastcore.logs import log_to
-from breastcore.plots import convergence_figure
+from breastcore.io.datasets import open_dataset
+from breastcore.pipeline.logs import log_to
+from breastcore.report.plots import convergence_figure
 
 
 def main(snakemake):

@@ -1,8 +1,8 @@
 """Snakemake script of the diagnostics_table rule: solver diagnostics per posture (CSV)."""
 
-from breastcore.datasets import open_dataset
-from breastcore.logs import log_to
-from breastcore.scene import diagnostics_table
+from breastcore.io.datasets import open_dataset
+from breastcore.pipeline.logs import log_to
+from breastcore.report.summaries import diagnostics_table
 
 
 def main(snakemake):

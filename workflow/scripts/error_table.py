@@ -1,8 +1,8 @@
 """Snakemake script of the error_table rule: mean parameter error per mesh and offset (CSV, %)."""
 
-from breastcore.datasets import open_dataset
-from breastcore.logs import log_to
-from breastcore.scene import error_table
+from breastcore.io.datasets import open_dataset
+from breastcore.pipeline.logs import log_to
+from breastcore.report.summaries import error_table
 
 
 def main(snakemake):

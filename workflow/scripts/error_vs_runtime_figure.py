@@ -1,8 +1,8 @@
 """Snakemake script of the error_vs_runtime_figure rule."""
 
-from breastcore.datasets import open_dataset
-from breastcore.logs import log_to
-from breastcore.plots import error_vs_runtime_figure
+from breastcore.io.datasets import open_dataset
+from breastcore.pipeline.logs import log_to
+from breastcore.report.plots import error_vs_runtime_figure
 
 
 def main(snakemake):

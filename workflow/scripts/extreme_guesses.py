@@ -1,8 +1,8 @@
 """Snakemake script of the extreme_guesses rule: identification from ×0.25 and ×4 moduli."""
 
-from breastcore.logs import log_to
+from breastcore.pipeline.keys import spec_key
+from breastcore.pipeline.logs import log_to
 from breastcore.stages.extreme import run_extreme_guesses
-from breastcore.keys import spec_key
 
 
 def main(snakemake):

@@ -1,8 +1,8 @@
 """Snakemake script of the identify rule: calls breastcore.stages.identify.run_identify."""
 
-from breastcore.logs import log_to
+from breastcore.pipeline.keys import spec_key
+from breastcore.pipeline.logs import log_to
 from breastcore.stages.identify import run_identify
-from breastcore.keys import spec_key
 
 
 def main(snakemake):

@@ -1,8 +1,8 @@
 """Snakemake script of the measure rule: calls breastcore.stages.measure.run_measure."""
 
-from breastcore.logs import log_to
+from breastcore.pipeline.keys import spec_key
+from breastcore.pipeline.logs import log_to
 from breastcore.stages.measure import run_measure
-from breastcore.keys import spec_key
 
 
 def main(snakemake):

@@ -1,8 +1,8 @@
 """Snakemake script of the mesh rule: calls breastcore.stages.mesh.run_mesh."""
 
-from breastcore.logs import log_to
+from breastcore.pipeline.keys import spec_key
+from breastcore.pipeline.logs import log_to
 from breastcore.stages.mesh import run_mesh
-from breastcore.keys import spec_key
 
 
 def main(snakemake):

@@ -1,8 +1,8 @@
 """Snakemake script of the parameter_table rule: estimate and 95 % intervals (CSV)."""
 
-from breastcore.datasets import open_dataset
-from breastcore.logs import log_to
-from breastcore.scene import parameter_table
+from breastcore.io.datasets import open_dataset
+from breastcore.pipeline.logs import log_to
+from breastcore.report.summaries import parameter_table
 
 
 def main(snakemake):

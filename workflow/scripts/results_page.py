@@ -1,7 +1,7 @@
 """Snakemake script of the results_page rule: docs/results.md from the scene summaries."""
 
-from breastcore.logs import log_to
-from breastcore.results_page import render
+from breastcore.pipeline.logs import log_to
+from breastcore.report.results_page import render
 
 
 def main(snakemake):

@@ -1,10 +1,10 @@
 """Snakemake script of the scene_summary rule: one summary dataset per scene."""
 
-from breastcore.calibration_scene import calibration_summary
-from breastcore.datasets import write_netcdf
-from breastcore.logs import log_to
-from breastcore.scene import record_datasets, solution_summary, stability_summary, synthetic_summary
-from breastcore.keys import spec_key
+from breastcore.io.datasets import write_netcdf
+from breastcore.pipeline.keys import spec_key
+from breastcore.pipeline.logs import log_to
+from breastcore.report.calibration import calibration_summary
+from breastcore.report.summaries import record_datasets, solution_summary, stability_summary, synthetic_summary
 
 
 def main(snakemake):

@@ -1,8 +1,8 @@
 """Snakemake script of the sensitivity rule: calls breastcore.stages.sensitivity.run_sensitivity."""
 
-from breastcore.logs import log_to
+from breastcore.pipeline.keys import spec_key
+from breastcore.pipeline.logs import log_to
 from breastcore.stages.sensitivity import run_sensitivity
-from breastcore.keys import spec_key
 
 
 def main(snakemake):

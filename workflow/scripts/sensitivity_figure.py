@@ -1,8 +1,8 @@
 """Snakemake script of the sensitivity_figure rule: the sensitivity heatmap."""
 
-from breastcore.datasets import open_dataset
-from breastcore.logs import log_to
-from breastcore.plots import sensitivity_figure
+from breastcore.io.datasets import open_dataset
+from breastcore.pipeline.logs import log_to
+from breastcore.report.plots import sensitivity_figure
 
 
 def main(snakemake):

@@ -1,8 +1,8 @@
 """Snakemake script of the shape_picture rule: side and front views of one posture."""
 
-from breastcore.datasets import open_dataset
-from breastcore.logs import log_to
-from breastcore.plots import shape_figure
+from breastcore.io.datasets import open_dataset
+from breastcore.pipeline.logs import log_to
+from breastcore.report.plots import shape_figure
 
 
 def main(snakemake):

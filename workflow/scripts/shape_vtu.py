@@ -2,9 +2,9 @@
 
 from pathlib import Path
 
-from breastcore.datasets import open_dataset
-from breastcore.export import export_solution
-from breastcore.logs import log_to
+from breastcore.io.datasets import open_dataset
+from breastcore.io.export import export_solution
+from breastcore.pipeline.logs import log_to
 
 
 def main(snakemake):

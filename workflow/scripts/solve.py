@@ -1,8 +1,8 @@
 """Snakemake script of the solve rule: calls breastcore.stages.solve.run_solve."""
 
-from breastcore.logs import log_to
+from breastcore.pipeline.keys import spec_key
+from breastcore.pipeline.logs import log_to
 from breastcore.stages.solve import run_solve
-from breastcore.keys import spec_key
 
 
 def main(snakemake):

@@ -1,8 +1,8 @@
 """Snakemake script of the stability rule: one chunk of grid cases, each a recorded outcome."""
 
-from breastcore.logs import log_to
+from breastcore.pipeline.keys import spec_key
+from breastcore.pipeline.logs import log_to
 from breastcore.stages.stability import run_stability
-from breastcore.keys import spec_key
 
 
 def main(snakemake):

@@ -1,9 +1,9 @@
 """Snakemake script of the stability_map / stability_table rules (PNG map or CSV counts)."""
 
-from breastcore.datasets import open_dataset
-from breastcore.logs import log_to
-from breastcore.plots import stability_map
-from breastcore.scene import stability_table
+from breastcore.io.datasets import open_dataset
+from breastcore.pipeline.logs import log_to
+from breastcore.report.plots import stability_map
+from breastcore.report.summaries import stability_table
 
 
 def main(snakemake):

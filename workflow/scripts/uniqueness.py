@@ -1,7 +1,7 @@
 """Snakemake script of the uniqueness rule: calls breastcore.stages.uniqueness.run_uniqueness."""
 
-from breastcore.keys import spec_key
-from breastcore.logs import log_to
+from breastcore.pipeline.keys import spec_key
+from breastcore.pipeline.logs import log_to
 from breastcore.stages.uniqueness import run_uniqueness
 
 

@@ -1,0 +1,56 @@
+"""The discrete energy of one posture as a function of the free dofs: value, gradient, Hessian."""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from breastcore.fem.terms import BulkNeoHookean, Chassaignac, Composite, Gravity, SkinMembrane
+from breastcore.model.parameters import Parameters
+
+if TYPE_CHECKING:
+    from breastcore.forward.model import ForwardModel
+
+
+class EquilibriumProblem:
+    """``J_h`` on the free dofs for one parameter set, gravity vector and δ."""
+
+    def __init__(self, model: "ForwardModel", params: Parameters, acceleration, smoothing):
+        self.model = model
+        ref = model.reference(params.R, params.H)
+        mesh = model.mesh
+        self.reference = ref
+        self.assembler = model.assembler(params.fold_angle)
+        self.bulk = BulkNeoHookean(ref, mesh.tets, params.lambda_breast, params.mu_breast)
+        self.gravity = Gravity(ref, mesh.tets, params.density, acceleration)
+        self.energy = Composite([
+            self.bulk,
+            SkinMembrane(ref, mesh.skin_triangles, params.lambda_skin, params.mu_skin, params.skin_thickness),
+            self.gravity,
+            Chassaignac(ref, mesh.back_triangles, params.chassaignac, smoothing),
+        ])
+        load = float(np.linalg.norm(self.gravity.load))
+        self.energy_scale = max(load, 1e-30) * params.R
+        self.length_scale = params.R
+
+    def full(self, z):
+        """Node positions ``(N, 3)`` from the free dofs (fixed dofs at their reference values)."""
+        return self.assembler.expand(z, self.reference)
+
+    def free(self, x):
+        return self.assembler.restrict(x)
+
+    def value(self, z):
+        return self.energy.value(self.full(z))
+
+    def gradient(self, z):
+        return self.free(self.energy.gradient(self.full(z)))
+
+    def hessian(self, z, project=False):
+        return self.assembler.assemble_terms(self.energy.nonlinear_terms, self.full(z), project)
+
+    @property
+    def pattern(self):
+        """Sparsity pattern of :meth:`hessian` (its PARDISO symbolic analysis is reused)."""
+        return self.assembler.pattern

@@ -1,0 +1,124 @@
+"""The forward model: one mesh, the equilibrium of any posture, several postures in parallel.
+
+A :class:`ForwardModel` holds one fixed-topology mesh; ``(R, H)`` move its nodes
+through the smooth :class:`~breastcore.model.geometry.CapMap`; each posture is solved by
+:func:`breastcore.forward.continuation.solve_posture`.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from breastcore.fem.assembly import FreeDofAssembler
+from breastcore.forward.continuation import solve_posture
+from breastcore.forward.equilibrium import EquilibriumProblem
+from breastcore.forward.options import SolverOptions
+from breastcore.forward.parallel import fork_map
+from breastcore.forward.records import PostureSolution, SolveError
+from breastcore.linalg.factorization import Factorization
+from breastcore.model.geometry import CapMap
+from breastcore.model.mesh import CapMesh, refold
+from breastcore.model.parameters import Parameters
+from breastcore.model.postures import Posture
+
+
+class ForwardModel:
+    """Fixed-topology forward model on one reference mesh.
+
+    Parameters
+    ----------
+    mesh : CapMesh
+        The mesh whose topology is kept; ``(R, H)`` move its nodes smoothly.
+    options : SolverOptions
+    """
+
+    def __init__(self, mesh: CapMesh, options: SolverOptions = SolverOptions()):
+        self.mesh = mesh
+        self.options = options
+        self.map = CapMap(mesh)
+        self._assemblers = {}
+
+    def reference(self, R, H):
+        """Gravity-free node positions for ``(R, H)``, ``(N, 3)`` m."""
+        return self.map.positions(R, H)
+
+    def mesh_at(self, params) -> CapMesh:
+        """The gravity-free mesh at ``params``' R and H, with its fold at ``params.fold_angle``."""
+        return refold(self.map.mesh_at(params.R, params.H), params.fold_angle)
+
+    def free_mask(self, fold_angle):
+        """``(N, 3)`` bool: fold nodes fixed, back nodes fixed in ``y`` (spec §2)."""
+        fold = self.mesh.fold if np.isclose(fold_angle, self.mesh.fold_angle) else refold(self.mesh, fold_angle).fold
+        free = np.ones((len(self.mesh.nodes), 3), dtype=bool)
+        free[self.mesh.back, 1] = False
+        free[fold] = False
+        return free
+
+    def assembler(self, fold_angle):
+        key = round(float(fold_angle), 9)
+        if key not in self._assemblers:
+            conns = [self.mesh.tets, self.mesh.skin_triangles, np.unique(self.mesh.back_triangles)[:, None]]
+            self._assemblers[key] = FreeDofAssembler(conns, self.free_mask(fold_angle))
+        return self._assemblers[key]
+
+    def problem(self, params, posture, load_factor=1.0, smoothing=None):
+        accel = load_factor * posture.gravity(params.gravity_magnitude)
+        return EquilibriumProblem(self, params, accel, params.smoothing if smoothing is None else smoothing)
+
+    def tolerance(self, params, posture):
+        """Absolute stopping tolerance: ``rtol`` × ‖gravity load vector‖ (N).
+
+        Without gravity (g = 0) the load is zero; the force scale ``μ R²`` replaces it.
+        """
+        load = float(np.linalg.norm(self.problem(params, posture).gravity.load))
+        return self.options.rtol * (load if load > 0 else params.mu_breast * params.R**2)
+
+    def tangent(self, params, posture, position):
+        """Exact free-dof Hessian at ``position``, factorised (for sensitivities)."""
+        problem = self.problem(params, posture)
+        return problem, Factorization(problem.hessian(problem.free(position)), problem.pattern)
+
+    def solve(self, params: Parameters, posture: Posture, start=None) -> PostureSolution:
+        """Equilibrium of ``posture``; see :func:`solve_posture`."""
+        return solve_posture(self, params, posture, start)
+
+    def after_fork(self):
+        """In a forked child: drop the parent's PARDISO analyses, so that this process makes its own."""
+        for assembler in self._assemblers.values():
+            assembler._pattern = None
+
+    def solve_postures(self, params: Parameters, postures, starts=None, processes=1,
+                       finish=None) -> list[PostureSolution]:
+        """Equilibria of several postures, optionally in ``processes`` forked worker processes.
+
+        The postures are independent solves, so running them in parallel gives the
+        same results bit for bit (PARDISO runs single-threaded, see
+        :data:`breastcore.linalg.pardiso.PARDISO_THREADS_ENV`). ``starts`` maps a posture
+        name to a warm start. Falls back to one process where ``fork`` is not
+        available or this process may not have children (a daemon). ``finish(posture,
+        solution)``, if given, runs in the worker after each successful solve and
+        returns a dict merged into ``solution.extra`` (work on the solution that
+        then runs in parallel too, e.g. its Jacobian).
+
+        Raises
+        ------
+        SolveError
+            The first posture that failed (after all have run).
+        """
+        postures = list(postures)
+        starts = starts or {}
+
+        def solve(index):                                  # a SolveError is returned, so that all run
+            try:
+                solution = self.solve(params, postures[index], starts.get(postures[index].name))
+            except SolveError as err:
+                return err
+            if finish is not None:
+                solution.extra.update(finish(postures[index], solution))
+            return solution
+
+        outcomes = fork_map(solve, len(postures), processes or 1, after_fork=self.after_fork)
+        for outcome in outcomes:
+            if isinstance(outcome, SolveError):
+                raise outcome
+        return outcomes

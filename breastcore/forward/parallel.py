@@ -1,0 +1,44 @@
+"""``fork_map``: ``[function(i) for i in range(count)]`` in forked worker processes.
+
+The function may be a closure over unpicklable state (a forward model with its
+PARDISO handles): the forked children inherit it, and only the indices and the
+results cross the process boundary.
+"""
+
+from __future__ import annotations
+
+import multiprocessing as mp
+from concurrent.futures import ProcessPoolExecutor
+
+_CHILD_FUNCTION = None    # set in a forked worker only (by _start_child), never in the caller
+
+
+def fork_map(function, count, processes=1, after_fork=None):
+    """``[function(i) for i in range(count)]``, in up to ``processes`` forked processes.
+
+    Serial where ``fork`` is not available, in a daemon process, or for
+    ``processes ≤ 1``. The results are in index order; ``function`` must return
+    picklable values and must not depend on what earlier calls did to shared state
+    if the results are to be the same for every ``processes``. ``after_fork`` runs
+    once in each child before its first call. An exception in ``function`` is
+    raised here; a child that dies (a crash in native code) raises
+    ``concurrent.futures.process.BrokenProcessPool`` instead of hanging.
+    """
+    processes = min(int(processes), count)
+    if processes <= 1 or "fork" not in mp.get_all_start_methods() or mp.current_process().daemon:
+        return [function(i) for i in range(count)]
+    # with fork, initargs reach the child through its copied memory, not pickling
+    with ProcessPoolExecutor(processes, mp_context=mp.get_context("fork"), initializer=_start_child,
+                             initargs=(function, after_fork)) as pool:
+        return list(pool.map(_call, range(count)))
+
+
+def _start_child(function, after_fork):
+    global _CHILD_FUNCTION
+    _CHILD_FUNCTION = function
+    if after_fork is not None:
+        after_fork()
+
+
+def _call(index):
+    return _CHILD_FUNCTION(index)

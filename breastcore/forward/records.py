@@ -1,0 +1,80 @@
+"""What a forward solve returns: a posture's equilibrium, or the typed error of a failed solve."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from breastcore.model.postures import Posture
+
+
+class SolveError(RuntimeError):
+    """A solve that did not reach its tolerance; carries the diagnostics.
+
+    Attributes
+    ----------
+    iterations : int
+        Newton (or CG) iterations spent in all continuation steps.
+    gradient_norm, tolerance : float
+        Free-dof gradient norm reached and the one asked for, N.
+    min_det_F : float
+        Smallest ``det F`` over the tets at the last admissible iterate.
+    load_factor, smoothing : float
+        Continuation level reached: fraction of gravity and δ (m).
+    posture : str
+    """
+
+    def __init__(self, message, *, iterations, gradient_norm, tolerance, min_det_F,
+                 load_factor, smoothing, posture):
+        self.iterations = iterations
+        self.gradient_norm = gradient_norm
+        self.tolerance = tolerance
+        self.min_det_F = min_det_F
+        self.load_factor = load_factor
+        self.smoothing = smoothing
+        self.posture = posture
+        self._message = message
+        super().__init__(
+            f"{posture}: {message} after {iterations} iterations; |g|={gradient_norm:.3e} N "
+            f"(tolerance {tolerance:.3e} N), min det F={min_det_F:.3e}, "
+            f"continuation reached load factor {load_factor:.4g}, δ={smoothing:.3e} m")
+
+    def __reduce__(self):                                            # picklable (parallel postures)
+        return (_rebuild_solve_error, (self._message, dict(
+            iterations=self.iterations, gradient_norm=self.gradient_norm, tolerance=self.tolerance,
+            min_det_F=self.min_det_F, load_factor=self.load_factor, smoothing=self.smoothing,
+            posture=self.posture)))
+
+
+def _rebuild_solve_error(message, fields):
+    return SolveError(message, **fields)
+
+
+@dataclass(frozen=True)
+class PostureSolution:
+    """Equilibrium of one posture. Positions in m, forces in N, energy in J."""
+
+    posture: Posture
+    position: np.ndarray
+    converged: bool
+    iterations: int
+    continuation_steps: int
+    gradient_norm: float
+    tolerance: float
+    energy: float
+    min_det_F: float
+    max_stretch: float
+    wall_time: float
+    extra: dict = field(default_factory=dict)
+
+    @property
+    def negative_eigenvalues(self) -> int:
+        """Negative eigenvalues of the exact Hessian at the returned position (``-1``: unknown, no PARDISO).
+
+        Computed at the solution itself, for Newton and CG solves, cold or warm. Zero
+        at a stable equilibrium (a local minimum of ``J_h``); a saddle is left by
+        :func:`~breastcore.nonlinear.saddle.escape_saddle` before returning, and > 0 only where
+        that escape keeps it (a neutral direction, or a failed last round).
+        """
+        return int(self.extra.get("negative_pivots", -1))

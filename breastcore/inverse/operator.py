@@ -1,0 +1,222 @@
+"""The observation operator ``Λ → M(Λ)``: forward solves in every posture, then measurements.
+
+It caches the last equilibrium per posture so that each new ``Λ`` is solved from
+a warm start, and provides the two Jacobians of issue #3:
+
+- ``implicit``: at equilibrium ``g(u; p) = 0`` so ``du/dp = −K⁻¹ ∂g/∂p``, one
+  back-substitution per parameter with the factorised exact Hessian ``K``;
+- ``fd``: the paper's forward differences ``(M(Λ + ε Λ_j e_j) − M(Λ)) / (ε Λ_j)``,
+  one extra (warm-started) solve per parameter and posture.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from breastcore.fem.terms import BulkNeoHookean, SkinMembrane, modulus_gradient
+from breastcore.forward.model import ForwardModel
+from breastcore.inverse.measurements import QUANTITIES, measure
+from breastcore.model.parameters import IDENTIFIED, Parameters
+
+#: Largest step of the R, H differences of the implicit Jacobian, per Chassaignac smoothing length δ:
+#: the sticking back nodes' gradient bends on the length δ (see implicit_jacobian).
+GEOMETRY_STEP_PER_SMOOTHING = 1e-3
+
+#: The energy term and Lamé attribute that each material parameter scales.
+_MODULI = {"lambda_breast": (BulkNeoHookean, "lam"), "mu_breast": (BulkNeoHookean, "mu"),
+           "lambda_skin": (SkinMembrane, "lam"), "mu_skin": (SkinMembrane, "mu")}
+
+
+class MeasurementModel:
+    """``Λ ↦ M(Λ)`` for fixed postures, measurement set and the non-identified constants.
+
+    Parameters
+    ----------
+    model : ForwardModel
+    base : Parameters
+        Supplies ρ, g, c, δ, t_s and θ_D; its Λ is replaced at each evaluation.
+    postures : sequence of Posture
+    measurement_set : {"paper15", "exact"}
+    warm_radius : float
+        Warm-start a solve only from equilibria whose Λ is within this relative
+        distance (max over the six parameters) of the new Λ; farther away, solve
+        cold. The standing posture has more than one local equilibrium near the
+        fold (the sliding back can settle in two states, 0.03 % apart in energy):
+        a warm start from far away can land on another branch than the cold path
+        that defines ``M(Λ)``, while nearby warm starts follow the same branch.
+    processes : int
+        The postures are solved in this many forked processes
+        (:meth:`ForwardModel.solve_postures`; the same results bit for bit).
+        Worth it from the thin mesh up: each call forks and redoes the symbolic
+        factorisation (~0.1 s on ultra-thin), against 1-7 s for a posture.
+    """
+
+    def __init__(self, model: ForwardModel, base: Parameters, postures, measurement_set="paper15",
+                 warm_radius=0.05, processes=1):
+        self.model = model
+        self.base = base
+        self.postures = tuple(postures)
+        self.measurement_set = measurement_set
+        self.quantities = QUANTITIES
+        self.warm_radius = warm_radius
+        if int(processes) < 1:
+            raise ValueError(f"processes must be ≥ 1, got {processes!r}")
+        self.processes = int(processes)
+        self._starts = {}
+        self._start_values = None
+        self.solves = 0
+
+    @classmethod
+    def from_problem(cls, problem, mesh=None, *, model=None, processes=1) -> "MeasurementModel":
+        """``Λ ↦ M(Λ)`` of a :class:`~breastcore.problem.ProblemSpec` on ``mesh`` (or an existing ``model``).
+
+        Constants, solver options, postures, measurement set and warm-start radius all
+        come from ``problem``; ``processes`` only changes how the postures are run.
+        ``problem`` must have identification options, whose warm-start radius this uses
+        (:class:`~breastcore.problem.ProblemSpecError` otherwise: no default radius).
+        """
+        if problem.measurement_set is None:
+            raise ValueError("this problem has no measurement set: it defines no M(Λ)")
+        warm_radius = problem.warm_radius()
+        if model is None:
+            model = problem.forward_model(mesh)
+        elif model.options != problem.solver:
+            raise ValueError("the forward model's solver options are not the problem's")
+        return cls(model, problem.parameters, problem.postures, problem.measurement_set,
+                   warm_radius=warm_radius, processes=processes)
+
+    def params(self, values) -> Parameters:
+        return self.base.with_identified(values)
+
+    def solve(self, values, remember=True, cold=False, jacobian=False):
+        """Equilibria of all postures at ``Λ = values`` (warm-started unless ``cold``). Raises SolveError.
+
+        With ``jacobian`` and ``processes > 1``, each worker also computes its
+        posture's rows of :meth:`implicit_jacobian` at ``values`` (0.1 s a posture on
+        ultra-thin, in parallel), which ``implicit_jacobian`` then reuses; serially
+        they are left to be computed when asked for.
+        """
+        params = self.params(values)
+        near = not cold and self._start_values is not None and \
+            np.max(np.abs(np.asarray(values) / self._start_values - 1.0)) <= self.warm_radius
+        starts = {p.name: self._starts.get(p.name) if near else None for p in self.postures}
+        if self.processes > 1:
+            at = np.array(values, dtype=float)
+
+            def rows(posture, solution):
+                return {"jacobian_rows": (at, self._posture_jacobian(params, at, posture, solution.position))}
+
+            solved = self.model.solve_postures(params, self.postures, starts, self.processes,
+                                               rows if jacobian else None)
+            solutions = {p.name: s for p, s in zip(self.postures, solved)}
+            self.solves += len(self.postures)
+        else:
+            solutions = {}
+            for posture in self.postures:
+                solutions[posture.name] = self.model.solve(params, posture, starts[posture.name])
+                self.solves += 1
+        for name, solution in solutions.items():
+            solution.extra["cold_start"] = starts[name] is None
+        if remember:
+            self.remember(solutions, values)
+        return solutions
+
+    @staticmethod
+    def solved_cold(solutions) -> bool:
+        """Whether every posture of ``solutions`` was solved cold (no warm start).
+
+        Such equilibria are those that define ``M(Λ)``: a cold solve is
+        reproducible bit for bit, so solving them cold again would repeat them.
+        """
+        return all(s.extra.get("cold_start", False) for s in solutions.values())
+
+    def remember(self, solutions, values):
+        """Use these equilibria (at ``Λ = values``) as the warm starts of the next solves."""
+        self._starts = {name: s.position for name, s in solutions.items()}
+        self._start_values = np.array(values, dtype=float)
+
+    def measure(self, solutions) -> np.ndarray:
+        """``(posture, quantity)`` array of measurements, SI units."""
+        rows = []
+        for posture in self.postures:
+            values = measure(self.model.mesh, solutions[posture.name].position, self.measurement_set)
+            rows.append([values[q] for q in self.quantities])
+        return np.array(rows)
+
+    def implicit_jacobian(self, values, solutions, rel_step=1e-6) -> np.ndarray:
+        """``∂M/∂Λ_j``, shape ``(posture, quantity, 6)``, in SI units per parameter unit.
+
+        Notes
+        -----
+        ``∂g/∂p`` is exact for the four moduli, on which ``g`` depends linearly
+        (:func:`~breastcore.fem.terms.modulus_gradient`; no new problem is built), and a
+        central difference of the free-dof gradient at fixed free dofs for R and H,
+        which move the reference nodes and the fold through the smooth map (second
+        order), with step ``h = min(rel_step·|p|, GEOMETRY_STEP_PER_SMOOTHING·δ)``:
+        the smoothed Chassaignac gradient ``c u/√(|u|² + δ²)`` of a back node that
+        sticks (``|u| ≲ δ``) bends on the length δ, so the difference's truncation
+        error is ``O((h/δ)²)`` there (docs/identification.md). ``∂M/∂x·dx/dp`` is a
+        central directional difference of the measurement functions, which are
+        smooth by construction.
+        """
+        params = self.params(values)
+        out = np.zeros((len(self.postures), len(self.quantities), len(IDENTIFIED)))
+        for i, posture in enumerate(self.postures):
+            solution = solutions[posture.name]
+            cached = solution.extra.get("jacobian_rows")
+            if cached is not None and np.array_equal(cached[0], np.asarray(values, dtype=float)):
+                out[i] = cached[1]                                  # computed by the worker that solved it
+            else:
+                out[i] = self._posture_jacobian(params, values, posture, solution.position, rel_step)
+        return out
+
+    def _posture_jacobian(self, params, values, posture, x, rel_step=1e-6):
+        """One posture's ``(quantity, 6)`` block of :meth:`implicit_jacobian` at equilibrium ``x``."""
+        out = np.zeros((len(self.quantities), len(IDENTIFIED)))
+        problem, factor = self.model.tangent(params, posture, x)
+        z = problem.free(x)
+        for j, name in enumerate(IDENTIFIED):
+            if name in _MODULI:
+                kind, attribute = _MODULI[name]
+                term = next(t for t in problem.energy.terms if isinstance(t, kind))
+                scale = getattr(term, "thickness", 1.0)          # skin moduli enter as λ_s t_s, μ_s t_s
+                dx = np.zeros_like(x)
+                dx[problem.assembler.free.reshape(-1, 3)] = \
+                    -factor.solve(scale * problem.free(modulus_gradient(term, attribute, x)))
+                out[:, j] = self._directional(x, dx)
+                continue
+            h = min(rel_step * abs(values[j]), GEOMETRY_STEP_PER_SMOOTHING * params.smoothing)
+            plus = self.model.problem(params.replace(**{name: values[j] + h}), posture)
+            minus = self.model.problem(params.replace(**{name: values[j] - h}), posture)
+            dg = (plus.gradient(z) - minus.gradient(z)) / (2 * h)
+            dx = (plus.full(z) - minus.full(z)) / (2 * h)        # moves the fixed dofs (fold) with R, H
+            dx[problem.assembler.free.reshape(-1, 3)] = -factor.solve(dg)
+            out[:, j] = self._directional(x, dx)
+        return out
+
+    def _directional(self, x, dx):
+        scale = 1e-7 / max(np.abs(dx).max(), 1e-300)                # a 0.1 µm move of the fastest node
+        plus = measure(self.model.mesh, x + scale * dx, self.measurement_set)
+        minus = measure(self.model.mesh, x - scale * dx, self.measurement_set)
+        return np.array([(plus[q] - minus[q]) / (2 * scale) for q in self.quantities])
+
+    def fd_jacobian(self, values, solutions, rel_step=1e-3, central=False) -> np.ndarray:
+        """Forward (or central) differences of ``M`` in each ``Λ_j``, with warm-started solves."""
+        base = self.measure(solutions)
+        self.remember(solutions, values)
+        out = np.zeros(base.shape + (len(IDENTIFIED),))
+        try:
+            for j in range(len(IDENTIFIED)):
+                h = rel_step * values[j]
+                plus = np.array(values, float)
+                plus[j] += h
+                m_plus = self.measure(self.solve(plus, remember=False))
+                if central:
+                    minus = np.array(values, float)
+                    minus[j] -= h
+                    out[..., j] = (m_plus - self.measure(self.solve(minus, remember=False))) / (2 * h)
+                else:
+                    out[..., j] = (m_plus - base) / h
+        finally:
+            self.remember(solutions, values)
+        return out

@@ -1,0 +1,167 @@
+"""MKL PARDISO through ``ctypes``: one handle per sparsity pattern, its symbolic analysis reused.
+
+Importing this module changes nothing in the process: the MKL library is loaded, and its
+thread count set, when the first handle is made. ``available()`` says whether PARDISO is
+installed (MKL is x86-64 only; elsewhere :mod:`breastcore.linalg.factorization` uses SuperLU).
+"""
+
+from __future__ import annotations
+
+import ctypes
+import os
+
+import numpy as np
+
+try:
+    import pypardiso as _pardiso
+except ImportError:  # MKL is x86-64 only: SuperLU instead
+    _pardiso = None
+
+
+def available() -> bool:
+    """Whether MKL PARDISO (through ``pypardiso``) is installed."""
+    return _pardiso is not None
+
+
+#: Threads PARDISO may use (environment variable ``BREASTCORE_PARDISO_THREADS``, default 1).
+#: On this project's 2-core machines two solves (or a solve and another job) often run at
+#: once; a 2-thread PARDISO then waits for a busy core and a 25 ms factorisation takes
+#: 60-200 ms, a solve 40-160 ms instead of 2 ms (measured, see docs/benchmarks.md).
+PARDISO_THREADS_ENV = "BREASTCORE_PARDISO_THREADS"
+
+
+def _set_pardiso_threads(lib):
+    try:
+        threads = int(os.environ.get(PARDISO_THREADS_ENV, "1"))
+    except ValueError:
+        threads = 1
+    if threads > 0:
+        try:                                                         # MKL serves only PARDISO here (numpy
+            lib.MKL_Set_Num_Threads.argtypes = [ctypes.c_int]        # has its own BLAS)
+            lib.MKL_Set_Num_Threads(threads)
+        except AttributeError:                                       # not an MKL runtime: keep its default
+            pass
+
+
+class _Pardiso:
+    """One MKL PARDISO instance for a real symmetric indefinite matrix (``mtype = -2``).
+
+    Called through ``ctypes`` on the MKL that ``pypardiso`` ships, with PARDISO's
+    default ``iparm`` (as ``pypardiso`` uses it). The phases are split so that the
+    symbolic analysis (phase 11: fill-reducing ordering) is done once per sparsity
+    pattern and each new matrix only needs the numeric factorisation (phase 22).
+    """
+
+    _function = None
+
+    def __init__(self, n, ia, ja, single=False):
+        if _Pardiso._function is None:
+            lib = ctypes.CDLL(os.environ.get("PYPARDISO_MKL_RT") or _pardiso.ps.libmkl._name)   # read, never set
+            _set_pardiso_threads(lib)
+            fn = lib.pardiso
+            p_int = ctypes.POINTER(ctypes.c_int32)
+            fn.argtypes = [ctypes.POINTER(ctypes.c_int64), p_int, p_int, p_int, p_int, p_int, ctypes.c_void_p,
+                           p_int, p_int, p_int, p_int, p_int, p_int, ctypes.c_void_p, ctypes.c_void_p, p_int]
+            fn.restype = None
+            _Pardiso._function = fn
+        self.n = int(n)
+        self.ia = np.ascontiguousarray(ia, dtype=np.int32)          # 1-based CSR of the upper triangle
+        self.ja = np.ascontiguousarray(ja, dtype=np.int32)
+        self.pt = np.zeros(64, dtype=np.int64)
+        self.iparm = np.zeros(64, dtype=np.int32)
+        self.dtype = np.float32 if single else np.float64
+        if single:                                                   # PARDISO's defaults for mtype −2, set
+            self.iparm[[0, 1, 9, 17, 18, 20, 27]] = [1, 2, 8, -1, -1, 1, 1]   # explicitly, plus single precision
+        self.perm = np.zeros(self.n, dtype=np.int32)
+        self.analysed = False
+        self.owner = None                                            # token of the factor held now
+
+    def _call(self, phase, data, b=None, nrhs=1):
+        c_int = ctypes.c_int32
+        p_int = ctypes.POINTER(c_int)
+        error = c_int(0)
+        x = np.zeros_like(b) if b is not None else None
+        self._function(self.pt.ctypes.data_as(ctypes.POINTER(ctypes.c_int64)), ctypes.byref(c_int(1)),
+                       ctypes.byref(c_int(1)), ctypes.byref(c_int(-2)), ctypes.byref(c_int(phase)),
+                       ctypes.byref(c_int(self.n)), data.ctypes.data if data is not None else None,
+                       self.ia.ctypes.data_as(p_int), self.ja.ctypes.data_as(p_int),
+                       self.perm.ctypes.data_as(p_int), ctypes.byref(c_int(nrhs)),
+                       self.iparm.ctypes.data_as(p_int), ctypes.byref(c_int(0)),
+                       b.ctypes.data if b is not None else None, x.ctypes.data if x is not None else None,
+                       ctypes.byref(error))
+        if error.value != 0:
+            raise RuntimeError(f"PARDISO phase {phase} failed with error {error.value}")
+        return x
+
+    def factorize(self, data, owner):
+        """Numeric factorisation of the matrix with upper-triangle values ``data``."""
+        self.owner = None
+        if not self.analysed:
+            self._call(11, data)
+            self.analysed = True
+        self._call(22, data)
+        self.owner = owner
+        return int(self.iparm[22])                                   # number of negative pivots
+
+    def solve(self, data, b):
+        b = np.asfortranarray(b, dtype=self.dtype)
+        nrhs = 1 if b.ndim == 1 else b.shape[1]
+        return np.ascontiguousarray(self._call(33, data, b, nrhs))
+
+    def free(self):
+        if self.analysed and self._function is not None:
+            try:
+                self._call(-1, None)
+            except Exception:                                        # noqa: BLE001 - interpreter shutdown
+                pass
+            self.analysed = False
+
+    def __del__(self):
+        self.free()
+
+
+class SymmetricPattern:
+    """The fixed sparsity pattern of a symmetric CSR matrix, with one reusable PARDISO handle.
+
+    A Newton solve factorises a matrix of the same pattern at every iteration; this
+    object keeps the PARDISO symbolic analysis (ordering) of that pattern, so that
+    :class:`Factorization` only does the numeric phase. The handle holds one numeric
+    factor at a time: a :class:`Factorization` whose factor was replaced by a later
+    one refactorises itself on its next ``solve`` (results never mix).
+
+    Parameters
+    ----------
+    indptr, indices : int arrays
+        CSR structure (sorted column indices) of the full symmetric matrix.
+    n : int
+        Matrix size.
+    """
+
+    def __init__(self, indptr, indices, n):
+        self.n = int(n)
+        self.indptr = np.asarray(indptr)
+        self.indices = np.asarray(indices)
+        rows = np.repeat(np.arange(self.n), np.diff(self.indptr))
+        upper = self.indices >= rows
+        self.upper = np.flatnonzero(upper)                           # positions of the upper triangle in data
+        counts = np.bincount(rows[upper], minlength=self.n)
+        self.ia = np.concatenate([[0], np.cumsum(counts)]).astype(np.int32) + 1
+        self.ja = self.indices[upper].astype(np.int32) + 1
+        self._handles = {}
+
+    def matches(self, K):
+        return (K.shape == (self.n, self.n) and K.format == "csr" and K.has_sorted_indices
+                and (K.indptr is self.indptr or np.array_equal(K.indptr, self.indptr))
+                and (K.indices is self.indices or np.array_equal(K.indices, self.indices)))
+
+    def handle(self, single=False):
+        """The PARDISO handle of this pattern (a separate one for single precision)."""
+        if single not in self._handles:
+            self._handles[single] = _Pardiso(self.n, self.ia, self.ja, single)
+        return self._handles[single]
+
+    def release(self):
+        """Free PARDISO's memory for this pattern (it is re-analysed on next use)."""
+        for handle in self._handles.values():
+            handle.free()
+        self._handles = {}

@@ -1,0 +1,174 @@
+"""Newton's method for the discrete energy, with the exact sparse Hessian.
+
+Robustness measures (issue #2, section 4):
+
+- a descent check on the Newton direction; when it fails, or the line search does,
+  the step is recomputed with a positive semi-definite Hessian (only when needed:
+  the bulk's tangent modulus ∂²W/∂F² and each skin block with their negative
+  eigenvalues set to zero), then with a diagonal shift;
+- a backtracking line search in which an inverted tet or a degenerate skin triangle
+  counts as infinite energy;
+- an Armijo test on the energy that falls back to a decrease of the gradient norm
+  once energy differences are below round-off (the last digits of a converged solve).
+"""
+
+from __future__ import annotations
+
+import logging
+from dataclasses import dataclass
+
+import numpy as np
+
+from breastcore.linalg.factorization import factor_solve, shift_diagonal
+from breastcore.nonlinear.line_search import _dot, _line_search, _norm
+
+log = logging.getLogger(__name__)
+
+
+@dataclass(frozen=True)
+class NewtonResult:
+    """Outcome of one Newton solve (frozen: it is a record, not a state).
+
+    Attributes
+    ----------
+    x : (n,) array
+        Free dofs at the last iterate, m.
+    success : bool
+        Whether ``gradient_norm <= tolerance``.
+    iterations : int
+        Newton iterations taken.
+    gradient_norm : float
+        Euclidean norm of the free-dof gradient at ``x``, N.
+    tolerance : float
+        The stopping tolerance on ``gradient_norm``, N.
+    energy : float
+        Energy at ``x``, J.
+    projected_steps : int
+        Iterations that needed the PSD projection or a shift.
+    history : tuple of float
+        Gradient norm before each iteration, N.
+    message : str
+        Why it stopped.
+    negative_pivots : int or None
+        Negative eigenvalues of the exact Hessian (PARDISO's inertia; ``None`` if
+        unknown) where it was last factorised: at ``x`` if ``inertia_at_x``, else at
+        the iterate before the last step (a Newton solve factorises before it steps).
+    inertia_at_x : bool
+        Whether ``negative_pivots`` is the inertia at ``x`` itself. Non-zero
+        inertia at ``x`` means the equilibrium is a saddle, not a minimum.
+    """
+
+    x: np.ndarray
+    success: bool
+    iterations: int
+    gradient_norm: float
+    tolerance: float
+    energy: float
+    projected_steps: int
+    history: tuple
+    message: str
+    negative_pivots: int | None = None
+    inertia_at_x: bool = False
+
+
+#: Iterations without progress after which :func:`newton` stops (see :func:`_stagnated`).
+STAGNATION_WINDOW = 10
+
+
+def _stagnated(history, energies, scale):
+    """Whether the last :data:`STAGNATION_WINDOW` iterations made no progress at all.
+
+    No progress: the gradient norm never fell below 0.9 × its best before the
+    window, and the energy changed by at most 1e-12 × ``scale`` (round-off).
+    This happens when the tolerance lies below the gradient's round-off floor
+    (e.g. λ/μ = 1e4 with a large load, where the forces cancel to ~1e-9 N):
+    without the test such a solve spends every iteration of every continuation
+    halving there (1,600 iterations in one no-inverse-crime identification step).
+    """
+    w = STAGNATION_WINDOW
+    if len(history) <= 2 * w:
+        return False
+    best_before = min(history[:-w])
+    flat = max(energies[-w - 1:]) - min(energies[-w - 1:]) <= 1e-12 * scale
+    return flat and min(history[-w:]) > 0.9 * best_before
+
+
+def newton(problem, z0, tolerance, max_iterations=50, avoid_saddles=False):
+    """Minimise ``problem`` from ``z0`` until the gradient norm is at most ``tolerance``.
+
+    Parameters
+    ----------
+    problem : object
+        Provides ``value(z)`` (``inf`` where inadmissible), ``gradient(z)``,
+        ``hessian(z, project)`` (CSR, free dofs) and ``energy_scale`` (J, a
+        typical energy magnitude used for round-off tests); optionally
+        ``pattern``, the :class:`SymmetricPattern` of its Hessians.
+    z0 : (n,) array
+        Admissible starting free dofs.
+    tolerance : float
+        Stopping tolerance on the Euclidean norm of the gradient, N.
+    max_iterations : int
+    avoid_saddles : bool
+        If True, an exact Hessian with negative pivots (indefinite, by PARDISO's
+        inertia) is not used: the step comes from the projected Hessian instead,
+        whose directions lead downhill to a minimum rather than to the nearest
+        stationary point. Used after a saddle was detected (see
+        :func:`breastcore.nonlinear.saddle.escape_saddle`); without inertia (SuperLU) it
+        has no effect.
+
+    Returns
+    -------
+    NewtonResult
+        ``success`` is False if the iteration limit was hit or no step decreased
+        the energy; callers decide whether to retry (continuation) or raise.
+    """
+    z = np.array(z0, dtype=float)
+    energy = problem.value(z)
+    if not np.isfinite(energy):
+        raise ValueError("Newton start is inadmissible (inverted tet or degenerate skin triangle)")
+    history = []
+    energies = [energy]
+    projected = 0
+    message = "iteration limit"
+    pattern = getattr(problem, "pattern", None)                      # reuse the symbolic factorisation
+    inertia = None
+    for it in range(max_iterations + 1):
+        g = problem.gradient(z)
+        g_norm = _norm(g)
+        history.append(g_norm)
+        if not np.isfinite(g_norm):
+            message = "non-finite gradient"
+            break
+        if g_norm <= tolerance:
+            return NewtonResult(z, True, it, g_norm, tolerance, energy, projected, tuple(history), "converged",
+                                inertia)
+        if it == max_iterations:
+            break
+        if _stagnated(history, energies, abs(energy) + problem.energy_scale):
+            message = f"stagnated: |g| at its round-off floor for {STAGNATION_WINDOW} iterations"
+            break
+        accepted = None
+        for mode in ("exact", "project", "shift"):
+            K = problem.hessian(z, project=(mode != "exact"))
+            if mode == "shift":
+                K = shift_diagonal(K, 1e-6 * abs(K.diagonal()).max())
+            factor, d = factor_solve(K, g, pattern)
+            if mode == "exact":
+                inertia = None if factor is None else factor.negative_pivots
+                if avoid_saddles and inertia:
+                    continue
+            if d is None or _dot(g, d) >= -1e-12 * g_norm * _norm(d):
+                continue
+            accepted = _line_search(problem, z, d, energy, g, g_norm, expand=(mode != "exact"))
+            if accepted is not None:
+                projected += mode != "exact"
+                break
+        if accepted is None:
+            message = "no descent step found (line search failed)"
+            break
+        step, z, energy = accepted
+        energies.append(energy)
+        log.debug("newton it=%d |g|=%.3e step=%.3g E=%.9e mode=%s neg=%s", it, g_norm, step, energy, mode,
+                  factor.negative_pivots)
+    return NewtonResult(z, False, len(history) - 1, history[-1], tolerance, energy, projected, tuple(history), message,
+                        inertia)

@@ -1,0 +1,120 @@
+"""Figures of the report: shapes, identification history, sensitivity heatmap (matplotlib, Agg)."""
+
+from __future__ import annotations
+
+import numpy as np
+from matplotlib.figure import Figure
+
+from breastcore.model.parameters import IDENTIFIED
+
+_LABELS = {"R": "R", "H": "H", "lambda_breast": "λ", "mu_breast": "μ", "lambda_skin": "λ_s", "mu_skin": "μ_s"}
+
+
+def subplots(*args, figsize, **kwargs):
+    """``matplotlib.pyplot.subplots`` without pyplot: no global backend or figure registry to change."""
+    fig = Figure(figsize=figsize)
+    return fig, fig.subplots(*args, **kwargs)
+
+
+def _save(fig, path):
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+
+
+def shape_figure(ds, posture, path):
+    """Side (y–z) and front (x–z) views of the skin, gravity-free (grey) and deformed (colour), mm."""
+    x0 = ds["reference_position"].values * 1e3
+    x = ds["position"].sel(posture=posture).values * 1e3
+    tris = ds["skin_triangles"].values
+    g = ds["gravity"].sel(posture=posture).values if "gravity" in ds else None
+    fig, axes = subplots(1, 2, figsize=(8, 4))
+    for ax, (i, j, label) in zip(axes, [(1, 2, "side: y anterior (mm)"), (0, 2, "front: x lateral (mm)")]):
+        ax.triplot(x0[:, i], x0[:, j], tris, color="0.8", lw=0.4)
+        ax.triplot(x[:, i], x[:, j], tris, color="tab:red", lw=0.5)
+        ax.set_xlabel(label)
+        ax.set_ylabel("z superior (mm)")
+        ax.set_aspect("equal")
+        if i == 1:
+            ax.axvline(0, color="k", lw=1)
+    if g is not None and np.linalg.norm(g) > 0:           # gravity direction in the side view
+        d = 0.12 * g[1:] / np.linalg.norm(g)
+        axes[0].annotate("g", xy=(0.85 + d[0], 0.85 + d[1]), xytext=(0.85, 0.85), xycoords="axes fraction",
+                         arrowprops={"arrowstyle": "->"})
+    fig.suptitle(f"{posture}: gravity-free (grey) and equilibrium (red)")
+    _save(fig, path)
+
+
+def convergence_figure(identifications, path, labels=None):
+    """Parameter / truth (or / final) and cost against iteration, one line per run."""
+    fig, axes = subplots(1, 2, figsize=(10, 4))
+    for k, ds in enumerate(identifications):
+        ref = ds["truth"].values if "truth" in ds else ds["estimate"].values
+        rel = ds["parameters"].values / ref - 1
+        for j, name in enumerate(IDENTIFIED):
+            axes[0].plot(ds["iteration"], rel[:, j] * 100, color=f"C{j}", alpha=0.7,
+                         label=_LABELS[name] if k == 0 else None)
+        axes[1].semilogy(ds["iteration"], np.maximum(ds["cost"].values, 1e-30), color="k", alpha=0.5)
+    axes[0].set_xlabel("iteration")
+    axes[0].set_ylabel("parameter error (%)" if "truth" in identifications[0] else "distance to final (%)")
+    axes[0].legend(ncol=3, fontsize=8)
+    axes[1].set_xlabel("iteration")
+    axes[1].set_ylabel("cost E")
+    _save(fig, path)
+
+
+def sensitivity_figure(ds, path):
+    """Heatmaps of the relative sensitivity ∂lnΛ/∂ln m (linearised, and finite if present)."""
+    names = [n for n in ("linearised", "finite") if n in ds]
+    fig, axes = subplots(1, len(names), figsize=(6 * len(names), 5), squeeze=False)
+    for ax, name in zip(axes[0], names):
+        S = ds[name].values.T
+        lim = np.nanmax(np.abs(S)) or 1.0
+        im = ax.imshow(S, cmap="RdBu_r", vmin=-lim, vmax=lim, aspect="auto")
+        ax.set_xticks(range(len(IDENTIFIED)), [_LABELS[p] for p in IDENTIFIED])
+        ax.set_yticks(range(S.shape[0]), ds["measurement"].values, fontsize=7)
+        ax.set_title(name)
+        fig.colorbar(im, ax=ax)
+    _save(fig, path)
+
+
+def error_vs_runtime_figure(summary, path):
+    """Log–log mean parameter error and measurement residual against wall time, per method and mesh."""
+    fig, axes = subplots(1, 2, figsize=(10, 4))
+    methods = list(dict.fromkeys(summary["method"].values))
+    error = np.abs(summary["relative_error"].values).mean(axis=1) * 100
+    for k, method in enumerate(methods):
+        sel = summary["method"].values == method
+        t = summary["wall_time"].values[sel]
+        for ax, y in zip(axes, (error[sel], summary["measurement_residual"].values[sel] * 100)):
+            ax.loglog(t, np.maximum(y, 1e-12), "o", color=f"C{k}", label=method)
+            for ti, yi, mesh in zip(t, y, summary["mesh"].values[sel]):
+                ax.annotate(str(mesh), (ti, max(yi, 1e-12)), fontsize=7)
+    axes[0].set_ylabel("mean |parameter error| (%)")
+    axes[1].set_ylabel("RMS measurement residual (%)")
+    for ax in axes:
+        ax.set_xlabel("identification wall time (s)")
+        ax.grid(True, which="both", alpha=0.3)
+    axes[0].legend(fontsize=8)
+    _save(fig, path)
+
+
+def stability_map(ds, path):
+    """Convergence rate for pairs of factors (a convergence map), one panel per pair."""
+    pairs = [("lam_over_mu", "mu"), ("mu_s", "c"), ("H_over_R", "delta")]
+    fig, axes = subplots(1, len(pairs), figsize=(5 * len(pairs), 4))
+    converged = ds["outcome"].values == "converged"
+    for ax, (a, b) in zip(axes, pairs):
+        va, vb = sorted(set(ds[a].values.tolist())), sorted(set(ds[b].values.tolist()))
+        rate = np.full((len(vb), len(va)), np.nan)
+        for i, y in enumerate(vb):
+            for j, x in enumerate(va):
+                sel = (ds[a].values == x) & (ds[b].values == y)
+                if sel.any():
+                    rate[i, j] = converged[sel].mean()
+        im = ax.imshow(rate, vmin=0, vmax=1, cmap="RdYlGn", origin="lower")
+        ax.set_xticks(range(len(va)), [f"{v:g}" for v in va])
+        ax.set_yticks(range(len(vb)), [f"{v:g}" for v in vb])
+        ax.set_xlabel(a)
+        ax.set_ylabel(b)
+    fig.colorbar(im, ax=list(axes), label="fraction converged")
+    fig.savefig(path, dpi=110)
