@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from breastcore.fem import compiled, kernels
+from breastcore.fem import compiled, kernels, material
 from breastcore.fem.element_ops import _cofactor
 
 
@@ -107,15 +107,10 @@ class BulkNeoHookean:
         r"""``C = ∂²W/∂F²`` of every tet, ``(T, 9, 9)`` in Pa, rows and columns ``vec F`` (row-major).
 
         ``C_{ij,kl} = μ δ_ik δ_jl + c_swap F⁻¹_li F⁻¹_jk + c_vol F⁻¹_ji F⁻¹_lk``
-        (:func:`breastcore.fem.kernels.bulk_neo_hookean`).
+        (:func:`breastcore.fem.material.tangent_modulus`).
         """
-        F, J, trace_C, cof = self._kinematics(x)
-        _, _, c_swap, c_vol = kernels.bulk_neo_hookean(J, trace_C, self.lam, self.mu)
-        Finv = np.swapaxes(cof, 1, 2) / J[:, None, None]
-        C = self.mu * np.einsum("ik,jl->ijkl", np.eye(3), np.eye(3))[None] \
-            + c_swap[:, None, None, None, None] * np.einsum("nli,njk->nijkl", Finv, Finv) \
-            + c_vol[:, None, None, None, None] * np.einsum("nji,nlk->nijkl", Finv, Finv)
-        return C.reshape(len(F), 9, 9)
+        F = self.deformation_gradient(x)
+        return material.tangent_modulus(F, self.lam, self.mu).reshape(len(F), 9, 9)
 
     def projected_element_hessians(self, x):
         r"""Reference numpy version of the PSD-projected blocks ``(T, 12, 12)``.

@@ -16,6 +16,16 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from breastcore.fem import material
+
+# The material law, compiled (fem/material.py is its one definition).
+_energy_density = njit(cache=True)(material.energy_density)
+_stress_coefficient = njit(cache=True)(material.stress_coefficient)
+_tangent_coefficients = njit(cache=True)(material.tangent_coefficients)
+_pressure = njit(cache=True)(material.pressure)
+_stretch_hessian_diagonal = njit(cache=True)(material.stretch_hessian_diagonal)
+_stretch_hessian_off_diagonal = njit(cache=True)(material.stretch_hessian_off_diagonal)
+
 
 @njit(cache=True)
 def scatter_blocks(data, positions, blocks):
@@ -70,8 +80,7 @@ def scatter_bulk_hessian(data, positions, x, tets, shape_gradients, volume, lam,
             for j in range(3):
                 Q[a, j] = G[a, 0] * Finv[0, j] + G[a, 1] * Finv[1, j] + G[a, 2] * Finv[2, j]
         V = volume[e]
-        c_vol = V * lam * J * (2.0 * J - 1.0)
-        c_swap = V * (mu - lam * J * (J - 1.0))
+        c_swap, c_vol = _tangent_coefficients(J, lam, mu, V)
         for a in range(4):
             for b in range(4):
                 diagonal = V * mu * (G[a, 0] * G[b, 0] + G[a, 1] * G[b, 1] + G[a, 2] * G[b, 2])
@@ -112,7 +121,7 @@ def bulk_energy(x, tets, shape_gradients, volume, lam, mu):
         for i in range(3):
             for j in range(3):
                 trace_C += F[i, j] * F[i, j]
-        total += volume[e] * (0.5 * mu * (trace_C - 3.0 - 2.0 * np.log(J)) + 0.5 * lam * (J - 1.0) ** 2)
+        total += volume[e] * _energy_density(J, trace_C, lam, mu)
     return total
 
 
@@ -130,7 +139,7 @@ def add_bulk_gradient(out, x, tets, shape_gradients, volume, lam, mu):
         _deformation_gradient(F, x, tets[e], G)
         J = _inverse(Finv, F)
         V = volume[e]
-        c_inv = lam * J * (J - 1.0) - mu
+        c_inv = _stress_coefficient(J, lam, mu)
         for a in range(4):
             node = tets[e, a]
             for i in range(3):
@@ -172,7 +181,7 @@ def _tangent_modes(U, s, V, J, lam, mu, values, modes, A, alpha, q):
     :func:`scatter_bulk_hessian_projected`). ``A``, ``alpha``, ``q``: work arrays.
     """
     root_half = np.sqrt(0.5)
-    psi_J = lam * (J - 1.0) - mu / J
+    psi_J = _pressure(J, lam, mu)
     m = 0
     for pair in range(3):
         i, j, k = (0, 1, 2) if pair == 0 else ((0, 2, 1) if pair == 1 else (1, 2, 0))
@@ -183,10 +192,10 @@ def _tangent_modes(U, s, V, J, lam, mu, values, modes, A, alpha, q):
                     modes[m, r, c] = root_half * (U[r, i] * V[c, j] - sign * U[r, j] * V[c, i])
             m += 1
     for i in range(3):
-        A[i, i] = mu + mu / (s[i] * s[i]) + lam * (J / s[i]) ** 2
+        A[i, i] = _stretch_hessian_diagonal(s[i], J, lam, mu)
         for j in range(i + 1, 3):
             k = 3 - i - j
-            A[i, j] = lam * J * J / (s[i] * s[j]) + lam * (J - 1.0) * s[k]
+            A[i, j] = _stretch_hessian_off_diagonal(s[i], s[j], s[k], J, lam)
             A[j, i] = A[i, j]
     _jacobi_eigh3(A, alpha, q)
     for n in range(3):

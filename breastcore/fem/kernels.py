@@ -8,6 +8,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from breastcore.fem import material
+
 
 def bulk_neo_hookean(J, trace_C, lam, mu):
     r"""Compressible neo-Hookean energy density of the breast bulk and its coefficients.
@@ -43,12 +45,8 @@ def bulk_neo_hookean(J, trace_C, lam, mu):
 
     with ``c_swap = μ − λJ(J−1)`` and ``c_vol = λJ(2J−1)``.
     """
-    log_J = np.log(J)
-    W = 0.5 * mu * (trace_C - 3.0 - 2.0 * log_J) + 0.5 * lam * (J - 1.0) ** 2
-    c_inv = lam * J * (J - 1.0) - mu
-    c_swap = -c_inv
-    c_vol = lam * J * (2.0 * J - 1.0)
-    return W, c_inv, c_swap, c_vol
+    c_swap, c_vol = material.tangent_coefficients(J, lam, mu)
+    return material.energy_density(J, trace_C, lam, mu), material.stress_coefficient(J, lam, mu), c_swap, c_vol
 
 
 def membrane_neo_hookean(I1, D, det_G, lam, mu):
