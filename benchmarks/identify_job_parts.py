@@ -23,7 +23,6 @@ import tempfile
 import time
 from pathlib import Path
 
-import yaml
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
@@ -31,15 +30,12 @@ sys.path.insert(0, str(ROOT))
 from benchmarks._common import header, print_table  # noqa: E402
 
 from breastcore.inverse import identify  # noqa: E402
-from breastcore.pipeline.config import validate_config  # noqa: E402
-from breastcore.pipeline.plan import Plan  # noqa: E402
+from breastcore.pipeline.plan import plan_from_files  # noqa: E402
 from breastcore.stages.identify import run_identify  # noqa: E402
 
 
 def paper_plan():
-    config = yaml.safe_load((ROOT / "config.yaml").read_text())
-    config.update(yaml.safe_load((ROOT / "config" / "paper.yaml").read_text()))
-    return Plan(validate_config(config, str(ROOT / "workflow" / "schemas" / "config.schema.yaml")))
+    return plan_from_files(ROOT / "config.yaml", ROOT / "config" / "paper.yaml")
 
 
 def job_spec(plan, level, nth):

@@ -1,8 +1,6 @@
-"""benchmarks/paper_scene_logs.py reads the log lines the solver really writes."""
+"""breastcore/studies/paper_scene_logs.py reads the log lines the solver really writes."""
 
 import logging
-import sys
-from pathlib import Path
 
 import pytest
 
@@ -13,10 +11,7 @@ from breastcore.model.mesh import mesh_level
 from breastcore.model.parameters import Parameters
 from breastcore.model.postures import Posture
 from breastcore.pipeline.logs import log_to
-
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
-
-from benchmarks.paper_scene_logs import solve_kinds  # noqa: E402
+from breastcore.studies.paper_scene_logs import solve_kinds
 
 
 def test_solve_kinds_counts_cold_warm_and_final_step_failures(tmp_path):

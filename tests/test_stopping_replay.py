@@ -1,13 +1,8 @@
-"""The replay of the cost_rtol stop (benchmarks/stopping_replay.py) on hand-made cost histories."""
-
-import sys
-from pathlib import Path
+"""The replay of the cost_rtol stop (breastcore.studies.stopping_replay) on hand-made cost histories."""
 
 import pytest
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
-
-from benchmarks.stopping_replay import plateau_stop  # noqa: E402
+from breastcore.studies.stopping_replay import plateau_stop
 
 
 @pytest.mark.parametrize("cost, rtol, stop", [

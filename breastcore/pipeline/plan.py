@@ -271,3 +271,21 @@ class Plan:
         for name in self.run_scenes:
             out += [self.scenes[name]["summary"], *self.scenes[name]["figures"]]
         return out
+
+
+def plan_from_files(*paths, schema=None) -> Plan:
+    """The plan of ``config.yaml``-style files, each one's top-level keys over the files before it.
+
+    For the scripts that read a run's jobs (``breastcore.studies.compare_runs --paper-only``):
+    ``plan_from_files("config.yaml", "config/paper.yaml")``. Unlike Snakemake's
+    ``--configfile``, a later file replaces a whole top-level key (``scenes`` too).
+    """
+    from pathlib import Path
+
+    import yaml
+
+    from breastcore.pipeline.config import DEFAULT_SCHEMA, validate_config
+    config = {}
+    for path in paths:
+        config.update(yaml.safe_load(Path(path).read_text()))
+    return Plan(validate_config(config, str(schema or DEFAULT_SCHEMA)))

@@ -2,7 +2,7 @@
 
 Usage::
 
-    python benchmarks/stopping_replay.py [--results results] [--thresholds 0.1,0.01,...]
+    python -m breastcore.studies.stopping_replay [--results results] [--thresholds 0.1,0.01,...]
                                          [--compare NEW_RESULTS]
 
 An identification run with ``cost_rtol = r`` is the prefix, bit for bit, of the same run
@@ -26,15 +26,12 @@ from __future__ import annotations
 import argparse
 import collections
 import json
-import sys
 from pathlib import Path
 
 import numpy as np
 import xarray as xr
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
-
-from benchmarks._common import header, print_table  # noqa: E402
+from breastcore.report.text_table import header, print_table
 
 
 def plateau_stop(cost, cost_rtol):

@@ -2,7 +2,7 @@
 
 Usage::
 
-    python benchmarks/paper_scene_logs.py [--results results] [--since-hash PREFIX]
+    python -m breastcore.studies.paper_scene_logs [--results results] [--since-hash PREFIX]
 
 Reads every ``<results>/identify/*.nc`` (mesh level, failed solves), the job's
 Snakemake benchmark (wall seconds) and its log (one line per Newton iteration and
@@ -31,16 +31,12 @@ import collections
 import datetime
 import re
 import statistics
-import sys
 from pathlib import Path
 
 import xarray as xr
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
-
-from benchmarks._common import header, print_table  # noqa: E402
-
-from breastcore.forward.options import SolverOptions  # noqa: E402
+from breastcore.forward.options import SolverOptions
+from breastcore.report.text_table import header, print_table
 
 STEP = re.compile(r"breastcore\.forward(?:\.continuation)?: (\S+): step t=(\S+) load=\S+ δ=\S+: (.*) in \d+ iterations")
 CONVERGED = re.compile(r"breastcore\.forward(?:\.continuation)?: (\S+): converged in (\d+) iterations \((\d+) continuation")

@@ -2,7 +2,7 @@
 
 Usage::
 
-    python benchmarks/compare_runs.py --before <results of the earlier run> [--after results] [--paper-only]
+    python -m breastcore.studies.compare_runs --before <results of the earlier run> [--after results] [--paper-only]
 
 Jobs are matched by output name (``results/identify/<hash>.nc``: the hash is the job's
 spec, so the same guess, mesh and options). Per mesh level it prints the job time summed
@@ -17,17 +17,13 @@ from __future__ import annotations
 
 import argparse
 import statistics
-import sys
 from collections import defaultdict
 from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
-
-from benchmarks._common import ROOT, header, print_table  # noqa: E402
-
-from breastcore.io.datasets import open_dataset  # noqa: E402
+from breastcore.io.datasets import open_dataset
+from breastcore.report.text_table import header, print_table
 
 
 def job_seconds(results: Path, key: str):
@@ -61,15 +57,15 @@ def compare(before: Path, after: Path, rtol: float, only=None):
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--before", required=True, help="results folder of the earlier run")
-    parser.add_argument("--after", default=str(ROOT / "results"), help="results folder of the later run")
+    parser.add_argument("--after", default="results", help="results folder of the later run")
     parser.add_argument("--rtol", type=float, default=1e-6, help="estimates agreeing to this count as the same")
     parser.add_argument("--paper-only", action="store_true", help="only the identify jobs of config/paper.yaml")
     args = parser.parse_args(argv)
     header("compare_runs")
     only = None
     if args.paper_only:
-        from benchmarks.identify_job_parts import paper_plan
-        only = {Path(path).name for path in paper_plan().jobs["identify"]}
+        from breastcore.pipeline.plan import plan_from_files
+        only = {Path(path).name for path in plan_from_files("config.yaml", "config/paper.yaml").jobs["identify"]}
     levels = compare(Path(args.before), Path(args.after), args.rtol, only)
     time_rows, work_rows, pairs = [], [], []
     for level, row in sorted(levels.items()):
