@@ -17,9 +17,9 @@ import textwrap
 import time
 from pathlib import Path
 
-import numpy as np
 
 from breastcore.report.text_table import fmt, header, machine_line, print_table  # noqa: F401 (re-exported)
+from breastcore.studies.mesh_convergence import fit_exponent  # noqa: F401 (re-exported)
 
 ROOT = Path(__file__).resolve().parents[1]
 RESULTS = ROOT / "benchmarks" / "results"
@@ -91,15 +91,6 @@ def run_python(code: str, timeout: float | None = None, env: dict | None = None)
     if proc.returncode != 0:
         out["stderr"] = stderr[-2000:]
     return out
-
-
-def fit_exponent(nodes, times) -> float:
-    """Least-squares slope of ``log(time)`` against ``log(nodes)``."""
-    x, y = np.log(np.asarray(nodes, float)), np.log(np.asarray(times, float))
-    ok = np.isfinite(x) & np.isfinite(y)
-    if ok.sum() < 2:
-        return float("nan")
-    return float(np.polyfit(x[ok], y[ok], 1)[0])
 
 
 def verdict(ok: bool) -> str:

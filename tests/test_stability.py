@@ -5,22 +5,19 @@ Every case must either return a solution that an independent check accepts
 in place, no inverted tet) or raise ``SolveError``: never NaN, never an
 unconverged return, never another exception. The fast test runs the paper's Λ̄
 with one factor changed at a time (42 cases); the slow one runs the
-``bench_stability.py --quick`` sample (185 cases) in worker processes with a time
-cap. The full grid is ``python benchmarks/bench_stability.py``.
+``python -m breastcore.studies.stability_grid --quick`` sample (185 cases) in worker processes with a time
+cap. The full grid is ``python -m breastcore.studies.stability_grid``.
 
 Also here: the robustness and speed measures of the solver (shared PARDISO
 analysis, parallel postures, picklable errors, warm starts rescaled onto a moved
 fold) keep results correct.
 """
 
-import sys
 from collections import Counter
-from pathlib import Path
 
 import pytest
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
-import bench_stability as grid  # noqa: E402
+from breastcore.studies import stability_grid as grid
 
 ALLOWED = {"converged", "solve_error"}
 

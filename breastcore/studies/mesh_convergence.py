@@ -10,8 +10,8 @@ meshes, not nested refinements, so the differences also carry mesh-to-mesh noise
 
 Usage::
 
-    python benchmarks/bench_convergence.py [--levels coarse medium thin reference fine10k]
-    python benchmarks/bench_convergence.py --quick     # without fine10k (``make bench``)
+    python -m breastcore.studies.mesh_convergence [--levels coarse medium thin reference fine10k]
+    python -m breastcore.studies.mesh_convergence --quick     # without fine10k (``make bench``)
 
 ``--quick`` drops fine10k, so the finest level (the differences' reference) is
 ``reference`` (3,010 nodes).
@@ -22,15 +22,22 @@ from __future__ import annotations
 import argparse
 import sys
 import time
-from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _common import fit_exponent, fmt, header, print_table  # noqa: E402
+from breastcore.report.text_table import fmt, header, print_table
 
 LEVELS = ["coarse", "medium", "thin", "reference", "fine10k"]
 
+
+
+def fit_exponent(nodes, times) -> float:
+    """Least-squares slope of ``log(time)`` against ``log(nodes)``."""
+    x, y = np.log(np.asarray(nodes, float)), np.log(np.asarray(times, float))
+    ok = np.isfinite(x) & np.isfinite(y)
+    if ok.sum() < 2:
+        return float("nan")
+    return float(np.polyfit(x[ok], y[ok], 1)[0])
 
 def deformed_volume(problem, x):
     """Mesh volume of the deformed tets, ``Σ_τ |τ| det F_τ`` (m³)."""

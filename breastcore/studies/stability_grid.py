@@ -29,8 +29,8 @@ the convergence rate and a per-value breakdown.
 
 Usage::
 
-    python benchmarks/bench_stability.py [--sample N] [--level coarse] [--timeout 120]
-    python benchmarks/bench_stability.py --quick     # --sample 150 (``make bench``)
+    python -m breastcore.studies.stability_grid [--sample N] [--level coarse] [--timeout 120]
+    python -m breastcore.studies.stability_grid --quick     # --sample 150 (``make bench``)
 """
 
 from __future__ import annotations
@@ -43,11 +43,13 @@ import os
 import sys
 import time
 import traceback
-from collections import Counter, defaultdict
+from collections import Counter
 from pathlib import Path
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _common import RESULTS, header, print_table  # noqa: E402
+from breastcore.report.text_table import header, print_table
+
+#: Where the case tables go by default (relative to the working directory).
+RESULTS = Path("results") / "studies"
 
 R = 0.0562
 FACTORS = {
@@ -292,7 +294,7 @@ def write_csv(rows, path):
         writer = csv.DictWriter(fh, fieldnames=keys, extrasaction="ignore")
         writer.writeheader()
         writer.writerows(rows)
-    print(f"case table: {os.path.relpath(path, RESULTS.parents[1])}")
+    print(f"case table: {os.path.relpath(path)}")
 
 
 def parse_args(argv=None):
