@@ -34,6 +34,7 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from benchmarks._common import RESULTS, header, print_table, run_python, timed, verdict  # noqa: E402
+from breastcore.inverse.warm_start import WarmStarts  # noqa: E402
 from benchmarks._ident import (  # noqa: E402
     PAPER_TIME,
     STARTS_30,
@@ -121,9 +122,9 @@ def bench_jacobian(levels=("coarse", "ultra-thin"), repeats=5, cold_repeats=3, s
         forward_model(level)
         mm = measurement_model(level)
         t_cold, _, sols = timed(lambda: measurement_model(level).solve(TRUTH), cold_repeats)
-        mm.remember(sols, TRUTH)
+        warm = WarmStarts.at(mm.warm_radius, sols, TRUTH)
         near = TRUTH * (1 + 1e-4)
-        t_warm, _, _ = timed(lambda: mm.solve(near, remember=False), repeats)
+        t_warm, _, _ = timed(lambda: mm.solve(near, warm), repeats)
         t_jac, _, _ = timed(lambda: mm.implicit_jacobian(TRUTH, sols), repeats)
         t_fd, _, _ = timed(lambda: mm.fd_jacobian(TRUTH, sols, 1e-4), cold_repeats)
         rows.append([level, len(mm.model.mesh.nodes), t_cold, t_warm, t_jac, t_fd, t_jac / t_cold, t_jac / t_warm,

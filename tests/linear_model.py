@@ -10,6 +10,13 @@ class _NoForwardModel:
         pass
 
 
+class _NoWarmStarts:
+    """Its solves need no start; a policy that remembers nothing."""
+
+    def remember(self, solutions, values):
+        pass
+
+
 class LinearModel:
     """``M(Λ) = M₀ exp(A ln(Λ/Λ̄))``, whose cold solves read every measurement ``1 + drift`` times higher.
 
@@ -26,12 +33,13 @@ class LinearModel:
         self.drift = drift
         self.solves = 0
 
-    def solve(self, values, remember=True, cold=False, jacobian=False):
-        self.solves += 1
-        return {"values": np.array(values, float), "cold": cold}
+    def warm_starts(self):
+        return _NoWarmStarts()
 
-    def remember(self, solutions, values):
-        pass
+    def solve(self, values, warm=None, jacobian=False):
+        """Without warm starts (``warm`` None) a solve is cold, and reads the cold branch."""
+        self.solves += 1
+        return {"values": np.array(values, float), "cold": warm is None}
 
     @staticmethod
     def solved_cold(solutions):

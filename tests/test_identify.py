@@ -64,7 +64,7 @@ def test_lm_recovers_truth_from_30_percent_off(problem):
     assert result.cost[-1] < 1e-12 < result.cost[0]
     assert len(result.parameters) == len(result.cost) == len(result.wall_time)
     # the estimate's shapes are those of the cold solve that defines M(Λ), not of another branch
-    cold = mm.measure(mm.solve(result.estimate, remember=False, cold=True))
+    cold = mm.measure(mm.solve(result.estimate))
     assert np.abs(mm.measure(result.solutions) / cold - 1).max() <= 1e-6
 
 
@@ -176,7 +176,7 @@ def test_jacobian_rows_from_the_workers_equal_the_serial_jacobian(problem, monke
     parallel = MeasurementModel(mm.model, Parameters(), paper_postures(), processes=2)
     solutions = parallel.solve(values, jacobian=True)
     serial = MeasurementModel(mm.model, Parameters(), paper_postures()).implicit_jacobian(values, solutions | {
-        name: dataclasses.replace(s, extra={}) for name, s in solutions.items()})     # no cached rows
+        name: dataclasses.replace(s, jacobian_rows=None) for name, s in solutions.items()})     # no cached rows
     monkeypatch.setattr(MeasurementModel, "_posture_jacobian", lambda *a, **k: pytest.fail("not reused"))
     np.testing.assert_allclose(parallel.implicit_jacobian(values, solutions), serial, rtol=1e-12, atol=0)
     with pytest.raises(pytest.fail.Exception):                  # rows at other Λ are not reused
@@ -188,7 +188,7 @@ def test_a_branch_drift_below_the_fit_residual_is_not_chased(drift, restarts):
     """Data 1 % off the model (RMS residual ≈ 9e-3): a 1e-3 drift is kept, a 5e-2 drift is chased."""
     mm = LinearModel(drift)
     noise = 0.01 * np.where(np.arange(15) % 2 == 0, 1.0, -1.0)
-    target = (mm.measure(mm.solve(TRUTH)).ravel() * (1 + noise)).reshape(3, 5)
+    target = (mm.measure(mm.solve(TRUTH, mm.warm_starts())).ravel() * (1 + noise)).reshape(3, 5)
     result = identify(mm, target, TRUTH * 1.2)
     assert result.success
     assert 1e-3 < np.sqrt(result.cost[-1] / 15) < 5e-2
@@ -206,7 +206,7 @@ def test_iteration_cap_spans_restarts_and_success_means_converged(method, drift)
     """
     noise = 0.01 * np.where(np.arange(15) % 2 == 0, 1.0, -1.0)
     mm = LinearModel(drift)
-    target = (mm.measure(mm.solve(TRUTH)).ravel() * (1 + noise)).reshape(3, 5)
+    target = (mm.measure(mm.solve(TRUTH, mm.warm_starts())).ravel() * (1 + noise)).reshape(3, 5)
     free = identify(mm, target, TRUTH * 1.2, IdentificationOptions(method=method))
     assert free.success
     for cap in range(1, free.iterations + 2):
@@ -221,8 +221,8 @@ def test_iteration_cap_spans_restarts_and_success_means_converged(method, drift)
 class _SpoiledSecondStep(LinearModel):
     """The second Gauss–Newton trial point reads every measurement 30 % high: the cost rises there."""
 
-    def solve(self, values, remember=True, cold=False, jacobian=False):
-        solutions = super().solve(values, remember, cold, jacobian)
+    def solve(self, values, warm=None, jacobian=False):
+        solutions = super().solve(values, warm, jacobian)
         solutions["spoiled"] = self.solves == 3          # 1: initial solve, 2: first step, 3: second step
         return solutions
 
@@ -295,34 +295,52 @@ def test_cost_rtol_outside_0_1_is_refused(value):
 def test_solutions_record_whether_they_were_solved_cold_and_cold_solves_repeat_bit_for_bit(problem):
     """The premise of skipping the branch check: a cold solve at the same Λ repeats, after other solves."""
     mm = MeasurementModel(problem[0].model, Parameters(), paper_postures())
-    far = mm.solve(TRUTH * 1.3)                                  # nothing remembered: cold
+    warm = mm.warm_starts()
+    far = mm.solve(TRUTH * 1.3, warm)                            # nothing remembered: cold
     assert mm.solved_cold(far)
-    near = mm.solve(TRUTH * 1.31)                                # within warm_radius: warm
+    warm.remember(far, TRUTH * 1.3)
+    near = mm.solve(TRUTH * 1.31, warm)                          # within warm_radius: warm
     assert not mm.solved_cold(near)
-    again = mm.solve(TRUTH * 1.3, remember=False, cold=True)
+    again = mm.solve(TRUTH * 1.3)                                # no warm starts: cold
     assert mm.solved_cold(again)
     for name, solution in far.items():
         assert np.array_equal(again[name].position, solution.position)
 
 
+def test_m_of_lambda_does_not_depend_on_call_history(problem):
+    """M(Λ) keeps no state: a solve leaves the warm starts it was given as they were, and
+    the same call gives the same equilibria after other solves (it remembered each call's
+    equilibria, and a caller such as scipy's Jacobian callback steered that from outside)."""
+    mm = MeasurementModel(problem[0].model, Parameters(), paper_postures())
+    warm = mm.warm_starts()
+    first = mm.solve(TRUTH * 1.02, warm)
+    assert warm.values is None and warm.positions == {}           # not changed by the solve
+    mm.solve(TRUTH * 0.97)
+    mm.solve(TRUTH * 1.01, mm.warm_starts())
+    second = mm.solve(TRUTH * 1.02, warm)
+    for name, solution in first.items():
+        assert np.array_equal(second[name].position, solution.position)
+
+
 def test_branch_check_is_skipped_when_the_estimate_was_solved_cold(monkeypatch):
     """Cold estimate equilibria: no cold re-solve and drift 0; warm ones are still checked."""
-    from breastcore.inverse.identify import IdentificationResult
     from breastcore.inverse import identify as identify_module
+    from breastcore.inverse.identify import IdentificationResult
     mm = LinearModel(5e-2)
     calls = []
     solve = mm.solve
-    monkeypatch.setattr(mm, "solve", lambda values, remember=True, cold=False, jacobian=False:
-                        calls.append(cold) or solve(values, remember, cold, jacobian))
-    target = mm.measure(solve(TRUTH))
+    monkeypatch.setattr(mm, "solve", lambda values, warm=None, jacobian=False:
+                        calls.append(warm is None) or solve(values, warm, jacobian))
+    target = mm.measure(solve(TRUTH, mm.warm_starts()))
     for cold, expected_calls in ((True, []), (False, [True])):
         calls.clear()
         result = IdentificationResult(True, "", TRUTH)
         result.parameters.append(TRUTH.copy())
         result.cost.append(1.0)
-        result.solutions = solve(TRUTH, cold=cold)
+        warm = mm.warm_starts()
+        result.solutions = solve(TRUTH, None if cold else warm)
         identify_module._check_branch(mm, target, np.ones_like(target), IdentificationOptions(), result,
-                                      lambda *a: None, lambda *a: None)
+                                      lambda *a: None, lambda *a: None, warm)
         assert calls == expected_calls
         assert (result.branch_drift == 0.0) == cold
 

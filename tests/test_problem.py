@@ -203,7 +203,7 @@ def test_finite_sensitivity_re_identifies_with_exactly_the_identification_proble
     spec, paths = stages
     seen = []
 
-    def spy(mm, target, initial, options, weights=None):
+    def spy(mm, target, initial, options, weights=None, warm=None):
         seen.append((mm.base, mm.model.options, mm.warm_radius, mm.measurement_set, tuple(mm.postures), options,
                      mm.model.mesh.nodes.copy()))
         raise RuntimeError("recorded; not run")               # a failure is recorded, never fatal

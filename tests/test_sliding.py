@@ -64,7 +64,7 @@ def test_solutions_and_estimates_record_their_margin_and_warning(tmp_path):
                               measurement_set="paper15", identification=IdentificationOptions(max_iterations=1))
         mm = MeasurementModel.from_problem(problem, mesh)
         truth = np.array(problem.parameters.identified())
-        data = mm.measure(mm.solve(truth, cold=True))
+        data = mm.measure(mm.solve(truth))
         target = PatientMeasurements(paper_postures(), QUANTITIES, data)
         result = identify(mm, data, truth, problem.identification)
         ds = identification_dataset(result, mm, target, problem, initial=truth)

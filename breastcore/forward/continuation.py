@@ -245,8 +245,6 @@ def _finish(model, problem, result, posture, iterations, steps, tic):
     min_det, stretch = _diagnostics(problem, x)
     log.info("%s: converged in %d iterations (%d continuation steps), |g|=%.3e N", posture.name,
              iterations, steps, result.gradient_norm)
-    extra = {}
-    if result.negative_pivots is not None:
-        extra["negative_pivots"] = int(result.negative_pivots)         # at x; > 0: a saddle kept (see _settle)
+    pivots = None if result.negative_pivots is None else int(result.negative_pivots)   # at x; > 0: a saddle kept
     return PostureSolution(posture, x, True, iterations, steps, result.gradient_norm, result.tolerance,
-                           result.energy, min_det, stretch, time.perf_counter() - tic, extra)
+                           result.energy, min_det, stretch, time.perf_counter() - tic, negative_pivots=pivots)

@@ -7,6 +7,8 @@ through the smooth :class:`~breastcore.model.geometry.CapMap`; each posture is s
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 
 from breastcore.fem.assembly import FreeDofAssembler
@@ -97,8 +99,8 @@ class ForwardModel:
         name to a warm start. Falls back to one process where ``fork`` is not
         available or this process may not have children (a daemon). ``finish(posture,
         solution)``, if given, runs in the worker after each successful solve and
-        returns a dict merged into ``solution.extra`` (work on the solution that
-        then runs in parallel too, e.g. its Jacobian).
+        returns a dict of :class:`PostureSolution` fields to set on it (work on the solution
+        that then runs in parallel too, e.g. its Jacobian rows).
 
         Raises
         ------
@@ -114,7 +116,7 @@ class ForwardModel:
             except SolveError as err:
                 return err
             if finish is not None:
-                solution.extra.update(finish(postures[index], solution))
+                solution = dataclasses.replace(solution, **finish(postures[index], solution))
             return solution
 
         outcomes = fork_map(solve, len(postures), processes or 1, after_fork=self.after_fork)

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -66,7 +66,12 @@ class PostureSolution:
     min_det_F: float
     max_stretch: float
     wall_time: float
-    extra: dict = field(default_factory=dict)
+    #: Negative eigenvalues of the exact Hessian at ``position`` (None: unknown, no PARDISO).
+    negative_pivots: int | None = None
+    #: Whether the solve started from the reference state (None: not recorded; see MeasurementModel.solve).
+    cold_start: bool | None = None
+    #: ``(Λ, rows)``: the implicit-Jacobian rows of this posture at Λ, if a worker computed them.
+    jacobian_rows: tuple | None = None
 
     @property
     def negative_eigenvalues(self) -> int:
@@ -77,4 +82,4 @@ class PostureSolution:
         :func:`~breastcore.nonlinear.saddle.escape_saddle` before returning, and > 0 only where
         that escape keeps it (a neutral direction, or a failed last round).
         """
-        return int(self.extra.get("negative_pivots", -1))
+        return -1 if self.negative_pivots is None else int(self.negative_pivots)

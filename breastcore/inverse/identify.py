@@ -82,11 +82,17 @@ def unconstrained_chain(values):
     return T
 
 
-def relative_jacobian(mm, values, solutions, options):
-    """``∂M/∂Λ · Λ / M̄``-ready Jacobian ``∂M/∂Λ`` (posture, quantity, 6), SI."""
+def relative_jacobian(mm, values, solutions, options, warm):
+    """``∂M/∂Λ · Λ / M̄``-ready Jacobian ``∂M/∂Λ`` (posture, quantity, 6), SI.
+
+    The forward differences' solves start from ``solutions``, which ``warm`` then
+    remembers (they are where the next step starts from).
+    """
     if options.jacobian == "implicit":
         return mm.implicit_jacobian(values, solutions)
-    return mm.fd_jacobian(values, solutions, options.fd_step)
+    dM = mm.fd_jacobian(values, solutions, options.fd_step)
+    warm.remember(solutions, values)
+    return dM
 
 
 def too_few_weighted(weights, parameters) -> str | None:
@@ -102,8 +108,11 @@ def too_few_weighted(weights, parameters) -> str | None:
     return f"{why}: {weighted} measurements cannot determine {parameters} parameters; {advice}"
 
 
-def identify(mm, target, initial, options=IdentificationOptions(), weights=None) -> IdentificationResult:
+def identify(mm, target, initial, options=IdentificationOptions(), weights=None, warm=None) -> IdentificationResult:
     """Find Λ minimising ``E`` for the measurements ``target`` (posture, quantity), SI units.
+
+    ``warm``: the :class:`~breastcore.inverse.warm_start.WarmStarts` the first solve starts
+    from (default: none, a cold solve at ``initial``); the run keeps its own afterwards.
 
     Raises
     ------
@@ -125,8 +134,9 @@ def identify(mm, target, initial, options=IdentificationOptions(), weights=None)
     result = IdentificationResult(False, "", np.asarray(initial, float))
     tic = time.perf_counter()
     implicit = options.jacobian == "implicit"
-    solutions = mm.solve(initial, jacobian=implicit)  # a failure here is the caller's to report
-    mm.remember(solutions, initial)
+    warm = mm.warm_starts() if warm is None else warm
+    solutions = mm.solve(initial, warm, jacobian=implicit)  # a failure here is the caller's to report
+    warm.remember(solutions, initial)
 
     def record(values, sols):
         error = mm.measure(sols) / target - 1.0
@@ -139,16 +149,16 @@ def identify(mm, target, initial, options=IdentificationOptions(), weights=None)
 
     record(initial, solutions)
     run = _levenberg_marquardt if options.method == "lm" else _gauss_newton
-    run(mm, target, sqrt_w, np.asarray(initial, float), solutions, options, result, record)
+    run(mm, target, sqrt_w, np.asarray(initial, float), solutions, options, result, record, warm)
     if mm.warm_radius > 0:
-        _check_branch(mm, target, sqrt_w, options, result, record, run)
+        _check_branch(mm, target, sqrt_w, options, result, record, run, warm)
     result.forward_solves = mm.solves
     final = result.parameters[-1]
     result.estimate = final
     if result.solutions is None:
-        result.solutions = mm.solve(final)
-    dM = mm.implicit_jacobian(final, result.solutions) if options.jacobian == "implicit" else \
-        mm.fd_jacobian(final, result.solutions, options.fd_step)
+        result.solutions = mm.solve(final, warm)
+        warm.remember(result.solutions, final)
+    dM = relative_jacobian(mm, final, result.solutions, options, warm)
     result.jacobian = dM * np.asarray(final)[None, None, :] / target[..., None]
     return result
 
@@ -163,7 +173,7 @@ BRANCH_TOL = 1e-6
 BRANCH_RESTARTS = 2
 
 
-def _check_branch(mm, target, sqrt_w, options, result, record, run):
+def _check_branch(mm, target, sqrt_w, options, result, record, run, warm_starts):
     """Re-solve the estimate cold; if warm starts had drifted to another branch, go on from it.
 
     The standing posture can have more than one stable equilibrium. A chain of
@@ -198,12 +208,12 @@ def _check_branch(mm, target, sqrt_w, options, result, record, run):
     """
     for attempt in range(BRANCH_RESTARTS + 1):
         values = np.array(result.parameters[-1], float)
-        warm = result.solutions if result.solutions is not None else mm.solve(values, remember=False)
+        warm = result.solutions if result.solutions is not None else mm.solve(values, warm_starts)
         if mm.solved_cold(warm):                        # the last step was solved cold: nothing to check
             result.branch_drift = 0.0
             return
         try:
-            cold = mm.solve(values, remember=False, cold=True)
+            cold = mm.solve(values)
         except (SolveError, ParameterError) as err:
             log.warning("identify: the cold re-solve at the estimate failed (%s); branch not checked", err)
             return
@@ -232,19 +242,19 @@ def _check_branch(mm, target, sqrt_w, options, result, record, run):
         log.warning("identify: warm starts drifted to another equilibrium branch (max |ΔM/M| = %.2e); "
                     "continuing from the cold equilibria", result.branch_drift)
         result.branch_restarts += 1
-        mm.remember(cold, values)
+        warm_starts.remember(cold, values)
         result.solutions = cold
         record(values, cold)
-        run(mm, target, sqrt_w, values, cold, options, result, record)
+        run(mm, target, sqrt_w, values, cold, options, result, record, warm_starts)
 
 
-def _levenberg_marquardt(mm, target, sqrt_w, initial, solutions, options, result, record):
+def _levenberg_marquardt(mm, target, sqrt_w, initial, solutions, options, result, record, warm):
     cache = {}
 
     def fun(z):
         values = from_unconstrained(z)
         try:
-            sols = mm.solve(values, remember=False, jacobian=options.jacobian == "implicit")
+            sols = mm.solve(values, warm, jacobian=options.jacobian == "implicit")
         except (SolveError, ParameterError) as err:
             result.failed_solves += 1
             log.info("identify: step rejected, forward solve failed (%s)", err)
@@ -254,8 +264,8 @@ def _levenberg_marquardt(mm, target, sqrt_w, initial, solutions, options, result
 
     def jac(z, *_):
         values, sols = cache[z.tobytes()]
-        mm.remember(sols, values)                         # accepted point: warm start from here
-        dM = relative_jacobian(mm, values, sols, options)
+        warm.remember(sols, values)                       # accepted point: warm start from here
+        dM = relative_jacobian(mm, values, sols, options, warm)
         J = (sqrt_w[..., None] * dM / target[..., None]).reshape(target.size, -1)
         return J @ unconstrained_chain(values)
 
@@ -331,19 +341,20 @@ class _Point:
         self.x = x
 
 
-def _gauss_newton(mm, target, sqrt_w, initial, solutions, options, result, record):
+def _gauss_newton(mm, target, sqrt_w, initial, solutions, options, result, record, warm):
     result.success = False                      # until this run (a restart too) meets ε_m
     values, sols = np.array(initial, float), solutions
     cost = result.cost[-1]
     while result.iterations < options.max_iterations:
         m = mm.measure(sols) / target
-        J = sqrt_w[..., None] * relative_jacobian(mm, values, sols, options) * values / target[..., None]
+        J = sqrt_w[..., None] * relative_jacobian(mm, values, sols, options, warm) * values / target[..., None]
         step, *_ = np.linalg.lstsq(J.reshape(target.size, -1), (sqrt_w * (1.0 - m)).ravel(), rcond=None)
         for _halving in range(12):             # safeguard: keep Λ admissible and solvable
             trial = values * (1.0 + step)
             try:
                 if np.all(trial > 0) and trial[1] < trial[0]:
-                    trial_sols = mm.solve(trial, jacobian=options.jacobian == "implicit")
+                    trial_sols = mm.solve(trial, warm, jacobian=options.jacobian == "implicit")
+                    warm.remember(trial_sols, trial)
                     break
             except (SolveError, ParameterError) as err:
                 result.failed_solves += 1
@@ -356,7 +367,7 @@ def _gauss_newton(mm, target, sqrt_w, initial, solutions, options, result, recor
         if trial_cost > cost and not options.fixed_iterations:
             # the paper's ε_m test fires here too, but this is no convergence; the step is not
             # taken, so the estimate is the best iterate, not the worse trial point
-            mm.remember(result.solutions or sols, values)
+            warm.remember(result.solutions or sols, values)
             result.message = (f"the Gauss–Newton step raised the cost ({cost:.3e} → {trial_cost:.3e}): step "
                               f"rejected, the best iterate (iteration {len(result.cost) - 1}) is the estimate")
             return

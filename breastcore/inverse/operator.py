@@ -1,7 +1,8 @@
 """The observation operator ``Λ → M(Λ)``: forward solves in every posture, then measurements.
 
-It caches the last equilibrium per posture so that each new ``Λ`` is solved from
-a warm start, and provides the two Jacobians of issue #3:
+It keeps no state between calls: a solve starts from the warm starts its caller passes
+(:class:`~breastcore.inverse.warm_start.WarmStarts`), or cold. It provides the two
+Jacobians of issue #3:
 
 - ``implicit``: at equilibrium ``g(u; p) = 0`` so ``du/dp = −K⁻¹ ∂g/∂p``, one
   back-substitution per parameter with the factorised exact Hessian ``K``;
@@ -13,9 +14,12 @@ from __future__ import annotations
 
 import numpy as np
 
+import dataclasses
+
 from breastcore.fem.terms import BulkNeoHookean, SkinMembrane, modulus_gradient
 from breastcore.forward.model import ForwardModel
 from breastcore.inverse.measurements import QUANTITIES, measure
+from breastcore.inverse.warm_start import WarmStarts
 from breastcore.model.parameters import IDENTIFIED, Parameters
 
 #: Largest step of the R, H differences of the implicit Jacobian, per Chassaignac smoothing length δ:
@@ -38,12 +42,13 @@ class MeasurementModel:
     postures : sequence of Posture
     measurement_set : {"paper15", "exact"}
     warm_radius : float
-        Warm-start a solve only from equilibria whose Λ is within this relative
-        distance (max over the six parameters) of the new Λ; farther away, solve
-        cold. The standing posture has more than one local equilibrium near the
-        fold (the sliding back can settle in two states, 0.03 % apart in energy):
-        a warm start from far away can land on another branch than the cold path
-        that defines ``M(Λ)``, while nearby warm starts follow the same branch.
+        The radius of the :class:`~breastcore.inverse.warm_start.WarmStarts` that
+        :meth:`warm_starts` makes (and :meth:`fd_jacobian` uses): warm-start a solve
+        only from equilibria whose Λ is within this relative distance (max over the six
+        parameters) of the new Λ. The standing posture has more than one local
+        equilibrium near the fold (the sliding back can settle in two states, 0.03 %
+        apart in energy): a warm start from far away can land on another branch than
+        the cold path that defines ``M(Λ)``, while nearby warm starts follow the same branch.
     processes : int
         The postures are solved in this many forked processes
         (:meth:`ForwardModel.solve_postures`; the same results bit for bit).
@@ -62,9 +67,7 @@ class MeasurementModel:
         if int(processes) < 1:
             raise ValueError(f"processes must be ≥ 1, got {processes!r}")
         self.processes = int(processes)
-        self._starts = {}
-        self._start_values = None
-        self.solves = 0
+        self.solves = 0                                  # a counter of forward solves, for the record
 
     @classmethod
     def from_problem(cls, problem, mesh=None, *, model=None, processes=1) -> "MeasurementModel":
@@ -88,8 +91,14 @@ class MeasurementModel:
     def params(self, values) -> Parameters:
         return self.base.with_identified(values)
 
-    def solve(self, values, remember=True, cold=False, jacobian=False):
-        """Equilibria of all postures at ``Λ = values`` (warm-started unless ``cold``). Raises SolveError.
+    def warm_starts(self) -> WarmStarts:
+        """An empty warm-start policy of this model's radius (the first solve is cold)."""
+        return WarmStarts(self.warm_radius)
+
+    def solve(self, values, warm: WarmStarts | None = None, jacobian=False):
+        """Equilibria of all postures at ``Λ = values``, from ``warm``'s starts (cold without). Raises SolveError.
+
+        ``warm`` is not changed: the caller decides which equilibria to remember.
 
         With ``jacobian`` and ``processes > 1``, each worker also computes its
         posture's rows of :meth:`implicit_jacobian` at ``values`` (0.1 s a posture on
@@ -97,9 +106,7 @@ class MeasurementModel:
         they are left to be computed when asked for.
         """
         params = self.params(values)
-        near = not cold and self._start_values is not None and \
-            np.max(np.abs(np.asarray(values) / self._start_values - 1.0)) <= self.warm_radius
-        starts = {p.name: self._starts.get(p.name) if near else None for p in self.postures}
+        starts = warm.starts(values, self.postures) if warm is not None else {p.name: None for p in self.postures}
         if self.processes > 1:
             at = np.array(values, dtype=float)
 
@@ -115,11 +122,7 @@ class MeasurementModel:
             for posture in self.postures:
                 solutions[posture.name] = self.model.solve(params, posture, starts[posture.name])
                 self.solves += 1
-        for name, solution in solutions.items():
-            solution.extra["cold_start"] = starts[name] is None
-        if remember:
-            self.remember(solutions, values)
-        return solutions
+        return {name: dataclasses.replace(s, cold_start=starts[name] is None) for name, s in solutions.items()}
 
     @staticmethod
     def solved_cold(solutions) -> bool:
@@ -128,12 +131,7 @@ class MeasurementModel:
         Such equilibria are those that define ``M(Λ)``: a cold solve is
         reproducible bit for bit, so solving them cold again would repeat them.
         """
-        return all(s.extra.get("cold_start", False) for s in solutions.values())
-
-    def remember(self, solutions, values):
-        """Use these equilibria (at ``Λ = values``) as the warm starts of the next solves."""
-        self._starts = {name: s.position for name, s in solutions.items()}
-        self._start_values = np.array(values, dtype=float)
+        return all(bool(s.cold_start) for s in solutions.values())
 
     def measure(self, solutions) -> np.ndarray:
         """``(posture, quantity)`` array of measurements, SI units."""
@@ -163,7 +161,7 @@ class MeasurementModel:
         out = np.zeros((len(self.postures), len(self.quantities), len(IDENTIFIED)))
         for i, posture in enumerate(self.postures):
             solution = solutions[posture.name]
-            cached = solution.extra.get("jacobian_rows")
+            cached = solution.jacobian_rows
             if cached is not None and np.array_equal(cached[0], np.asarray(values, dtype=float)):
                 out[i] = cached[1]                                  # computed by the worker that solved it
             else:
@@ -201,22 +199,19 @@ class MeasurementModel:
         return np.array([(plus[q] - minus[q]) / (2 * scale) for q in self.quantities])
 
     def fd_jacobian(self, values, solutions, rel_step=1e-3, central=False) -> np.ndarray:
-        """Forward (or central) differences of ``M`` in each ``Λ_j``, with warm-started solves."""
+        """Forward (or central) differences of ``M`` in each ``Λ_j``, each solve warm-started from ``solutions``."""
         base = self.measure(solutions)
-        self.remember(solutions, values)
+        warm = WarmStarts.at(self.warm_radius, solutions, values)
         out = np.zeros(base.shape + (len(IDENTIFIED),))
-        try:
-            for j in range(len(IDENTIFIED)):
-                h = rel_step * values[j]
-                plus = np.array(values, float)
-                plus[j] += h
-                m_plus = self.measure(self.solve(plus, remember=False))
-                if central:
-                    minus = np.array(values, float)
-                    minus[j] -= h
-                    out[..., j] = (m_plus - self.measure(self.solve(minus, remember=False))) / (2 * h)
-                else:
-                    out[..., j] = (m_plus - base) / h
-        finally:
-            self.remember(solutions, values)
+        for j in range(len(IDENTIFIED)):
+            h = rel_step * values[j]
+            plus = np.array(values, float)
+            plus[j] += h
+            m_plus = self.measure(self.solve(plus, warm))
+            if central:
+                minus = np.array(values, float)
+                minus[j] -= h
+                out[..., j] = (m_plus - self.measure(self.solve(minus, warm))) / (2 * h)
+            else:
+                out[..., j] = (m_plus - base) / h
         return out

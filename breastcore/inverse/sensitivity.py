@@ -41,7 +41,7 @@ def finite_sensitivity(mm, target, estimate, options, delta=0.10, processes=1):
     values = np.asarray(target.values, float)
     estimate = np.asarray(estimate, float)
     n = values.size
-    anchor = mm.solve(estimate, remember=False)
+    anchor = mm.solve(estimate)
 
     def reidentify(task):
         i, end = divmod(task, 2)
@@ -49,9 +49,10 @@ def finite_sensitivity(mm, target, estimate, options, delta=0.10, processes=1):
                  (1.0 + delta, 1.0 - delta)[end])
         perturbed = values.copy().ravel()
         perturbed[i] *= (1.0 + delta, 1.0 - delta)[end]
-        mm.remember(anchor, estimate)
         try:
-            res = identify(mm, perturbed.reshape(values.shape), estimate, options, target.weights)
+            warm = mm.warm_starts()
+            warm.remember(anchor, estimate)
+            res = identify(mm, perturbed.reshape(values.shape), estimate, options, target.weights, warm=warm)
         except Exception:  # noqa: BLE001 — a failed solve: recorded, never fatal
             return None, False
         limited = res.iterations >= options.max_iterations and not res.success

@@ -97,7 +97,7 @@ def extreme_guess_study(spec, mesh, config_hash=None) -> xr.Dataset:
     model = problem.forward_model(mesh)
     truth = np.array(problem.parameters.identified())
     truth_model = MeasurementModel.from_problem(problem, model=model)
-    target = truth_model.measure(truth_model.solve(truth, remember=False, cold=True))
+    target = truth_model.measure(truth_model.solve(truth))
     options = problem.identification
     labels, starts, runs = [], [], []
     for label, scale in extreme_guesses(spec["factors"]):

@@ -176,7 +176,7 @@ def run_case(case, level="coarse"):
     u = sol.position[nipple] - model.reference(params.R, params.H)[nipple]
     row.update(wall=wall, iterations=sol.iterations, continuation_steps=sol.continuation_steps,
                gradient_norm=sol.gradient_norm, tolerance=sol.tolerance, min_det_F=sol.min_det_F,
-               nipple_dy=float(u[1]), nipple_dz=float(u[2]), negative_pivots=sol.extra.get("negative_pivots"))
+               nipple_dy=float(u[1]), nipple_dz=float(u[2]), negative_pivots=sol.negative_pivots)
     values = [sol.gradient_norm, sol.energy, sol.min_det_F, sol.max_stretch]
     if not (np.all(np.isfinite(sol.position)) and np.all(np.isfinite(values))):
         row.update(outcome="nan", message="non-finite solution")
