@@ -615,3 +615,27 @@ def test_the_schema_defaults_are_the_code_defaults():
         for f in dataclasses.fields(cls):
             if f.name in section:
                 assert section[f.name]["default"] == f.default, (cls.__name__, f.name)
+
+
+def test_every_job_asks_a_scheduler_for_threads_memory_and_time(tmp_path):
+    """A cluster executor (workflow/profiles/slurm) sizes each sbatch job from these: every job
+    of the default run and of the paper scene declares mem_mb and runtime, by its stage and level."""
+    import yaml
+
+    from breastcore.pipeline.resources import mem_mb, runtime_minutes
+    (tmp_path / "config.yaml").write_text((ROOT / "config.yaml").read_text())
+    for extra in ([], ["results_page", "--configfile", str(ROOT / "config/paper.yaml")]):
+        out = _dry_run(tmp_path, *extra)
+        assert out.returncode == 0, out.stderr[-2000:]
+        jobs = re.findall(r"^rule (\w+):\n(?:    .*\n)*?    output: (\S+?)[,\n](?:    .*\n)*?    resources: (.*)$",
+                          out.stdout, re.M)
+        rules = [r for r in re.findall(r"^rule (\w+):$", out.stdout, re.M) if r != "all"]    # the target only
+        assert len(jobs) == len(rules) > 10
+        for rule, output, resources in jobs:
+            asked = dict(item.split("=", 1) for item in resources.split(", "))
+            assert int(asked["mem_mb"]) > 0 and int(asked["runtime"]) > 0, (rule, resources)
+            if rule == "identify" and "/ultra-thin-" in output:
+                assert (int(asked["mem_mb"]), int(asked["runtime"])) == (mem_mb("ultra-thin"),
+                                                                       runtime_minutes("identify", "ultra-thin"))
+    profile = yaml.safe_load((ROOT / "workflow/profiles/slurm/config.yaml").read_text())
+    assert profile["executor"] == "slurm" and {"mem_mb", "runtime"} <= set(profile["default-resources"])

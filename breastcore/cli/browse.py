@@ -21,6 +21,7 @@ _KEY_NUMBERS = {
 }
 #: Key numbers of scene summaries whose kind has its own (the others use the "scene" list).
 _SCENE_KEY_NUMBERS = {
+    "patient": ["newton_iterations", "min_det_F", "max_stretch"],     # after the clinical block
     "calibration": ["table2_residual", "paper_table2_residual", "passed", "measurement_difference",
                     "sliding_difference", "identification_error"],
 }
@@ -54,11 +55,14 @@ def _labels(ds, dim, limit=40, exclude=()):
     return ["/".join(str(c[i]) for c in columns) for i in range(ds.sizes[dim])]
 
 
-def describe(ds) -> str:
+def describe(ds, pictures=()) -> str:
     """Multi-line summary: what the dataset is, its parameters, key numbers and provenance.
 
-    Key numbers are printed to 4 significant digits, each with its units and the names of
-    the entries along its dimensions.
+    A patient summary or an identification starts with what a clinician reads first
+    (:func:`breastcore.report.clinical.clinical_lines`: the fit verdict, the estimate with its
+    95 % intervals, measured against fitted in mm, cm² and ml, and ``pictures``). Key numbers
+    are printed to 4 significant digits, each with its units and the names of the entries
+    along its dimensions.
     """
     import numpy as np
 
@@ -74,7 +78,15 @@ def describe(ds) -> str:
             units = f" {PARAMETER_INFO[k].units}" if k in PARAMETER_INFO else ""
             return f"{k}={v:.6g}{units}" if isinstance(v, (int, float)) else f"{k}={v}"
         lines.append("  parameters: " + ", ".join(shown(k, v) for k, v in params.items()))
+    clinical = a.get("scene_kind") == "patient" or a.get("stage") == "identify"
+    if clinical:
+        from breastcore.report.clinical import clinical_lines
+        lines += clinical_lines(ds, pictures)
     keys = _SCENE_KEY_NUMBERS.get(a.get("scene_kind")) or _KEY_NUMBERS.get(a.get("stage"), [])
+    if clinical:
+        keys = [k for k in keys if k not in ("estimate", "interval_low", "interval_high", "determined")]
+        if keys:
+            lines.append("  solver diagnostics of the final shapes:" if a.get("stage") == "scene" else "  details:")
     for name in keys:
         if name in ds:
             var = ds[name]
@@ -87,7 +99,7 @@ def describe(ds) -> str:
             values = np.array2string(np.asarray(var.values), threshold=200, max_line_width=100,
                                      formatter={"float_kind": "{:.4g}".format})
             lines.append("      " + values.replace("\n", "\n      "))
-    lines += _worth(ds)
+    lines += _worth(ds, verdict=not clinical)
     if "success" in a:                          # the optimiser's flag: what the estimate is worth is the verdict
         lines.append(f"  optimiser stopping test met: {'yes' if int(a['success']) else 'no'}")
     for key in ("message", "mesh_level", "solver", "method", "measurement_set", "outcome_counts",
@@ -99,10 +111,10 @@ def describe(ds) -> str:
     return "\n".join(lines)
 
 
-def _worth(ds) -> list:
+def _worth(ds, verdict=True) -> list:
     """Lines saying what an estimate is worth: its fit verdict, undetermined parameters, input notes."""
     a, lines = ds.attrs, []
-    if "verdict" in a:
+    if "verdict" in a and verdict:
         lines.append(f"  fit verdict: {a['verdict']}: {a.get('verdict_message', '')}")
     if "determined" in ds and "parameter" in ds["determined"].dims and ds["determined"].ndim == 1:
         from breastcore.inverse.uncertainty import UNDETERMINED, undetermined
@@ -120,7 +132,10 @@ def _worth(ds) -> list:
 
 def run_show(args):
     from breastcore.io.datasets import open_dataset
-    print(describe(open_dataset(args.dataset)))
+    ds = open_dataset(args.dataset)
+    folder = Path(args.dataset).parent
+    pictures = sorted(folder.glob("shape_*.png")) if ds.attrs.get("scene_kind") == "patient" else []
+    print(describe(ds, pictures))
 
 
 def scenes_by_dataset(summaries) -> dict:

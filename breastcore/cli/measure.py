@@ -56,8 +56,11 @@ def run(args):
         problem = ProblemSpec.from_dataset(solution).replace(measurement_set=target.measurement_set)
         ds = measurement_dataset(target, str(args.solution), landmarks=marks, problem=problem)
     write_netcdf(ds, args.out)
-    table = ds["measurement"].to_pandas()
-    table.columns = [f"{q} [{u}]" for q, u in zip(ds["quantity"].values, ds["quantity_units"].values)]
-    print(table.to_string())
+    from breastcore.report.clinical import QUANTITY_UNITS
+    table = ds["measurement"].transpose("posture", "quantity").to_pandas()
+    for q in table.columns:                     # echoed as a tape reads: ml, cm², mm (the dataset stays SI)
+        table[q] = table[q] * QUANTITY_UNITS[str(q)][1]
+    table.columns = [f"{q} [{QUANTITY_UNITS[str(q)][0]}]" for q in table.columns]
+    print(table.to_string(float_format=lambda v: f"{v:.4g}"))
     print(f"wrote {args.out}")
 

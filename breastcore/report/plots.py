@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 from matplotlib.figure import Figure
+from matplotlib.ticker import FuncFormatter
 
 from breastcore.model.parameters import IDENTIFIED
 
@@ -45,15 +46,23 @@ def shape_figure(ds, posture, path):
 
 
 def convergence_figure(identifications, path, labels=None):
-    """Parameter / truth (or / final) and cost against iteration, one line per run."""
-    fig, axes = subplots(1, 2, figsize=(10, 4))
+    """Parameter / truth (or / final) and cost against iteration: colour per parameter, line
+    style and marker per run (``labels``, in the cost panel's legend)."""
+    fig, axes = subplots(1, 2, figsize=(9, 4))
+    styles = ["-", "--", ":", "-."]
+    markers = ["o", "s", "^", "v", "D", "x"]
     for k, ds in enumerate(identifications):
         ref = ds["truth"].values if "truth" in ds else ds["estimate"].values
         rel = ds["parameters"].values / ref - 1
+        style = {"linestyle": styles[k % len(styles)], "marker": markers[k % len(markers)], "markersize": 3}
         for j, name in enumerate(IDENTIFIED):
             axes[0].plot(ds["iteration"], rel[:, j] * 100, color=f"C{j}", alpha=0.7,
-                         label=_LABELS[name] if k == 0 else None)
-        axes[1].semilogy(ds["iteration"], np.maximum(ds["cost"].values, 1e-30), color="k", alpha=0.5)
+                         label=_LABELS[name] if k == 0 else None, **style)
+        run = labels[k] if labels is not None and k < len(labels) else f"run {k + 1}"
+        axes[1].semilogy(ds["iteration"], np.maximum(ds["cost"].values, 1e-30), color="k", alpha=0.6, label=run,
+                         **style)
+    if len(identifications) > 1:
+        axes[1].legend(fontsize=7, title="run", title_fontsize=7)
     axes[0].set_xlabel("iteration")
     axes[0].set_ylabel("parameter error (%)" if "truth" in identifications[0] else "distance to final (%)")
     axes[0].legend(ncol=3, fontsize=8)
@@ -72,14 +81,15 @@ def sensitivity_figure(ds, path):
         im = ax.imshow(S, cmap="RdBu_r", vmin=-lim, vmax=lim, aspect="auto")
         ax.set_xticks(range(len(IDENTIFIED)), [_LABELS[p] for p in IDENTIFIED])
         ax.set_yticks(range(S.shape[0]), ds["measurement"].values, fontsize=7)
-        ax.set_title(name)
-        fig.colorbar(im, ax=ax)
+        ax.set_title(f"{name}: relative sensitivity")
+        ax.set_xlabel("identified parameter")
+        fig.colorbar(im, ax=ax, label="∂ln Λ_j / ∂ln m_i (% per %)")
     _save(fig, path)
 
 
 def error_vs_runtime_figure(summary, path):
     """Log–log mean parameter error and measurement residual against wall time, per method and mesh."""
-    fig, axes = subplots(1, 2, figsize=(10, 4))
+    fig, axes = subplots(1, 2, figsize=(9, 4.5))
     methods = list(dict.fromkeys(summary["method"].values))
     error = np.abs(summary["relative_error"].values).mean(axis=1) * 100
     for k, method in enumerate(methods):
@@ -88,12 +98,18 @@ def error_vs_runtime_figure(summary, path):
         for ax, y in zip(axes, (error[sel], summary["measurement_residual"].values[sel] * 100)):
             ax.loglog(t, np.maximum(y, 1e-12), "o", color=f"C{k}", label=method)
             for ti, yi, mesh in zip(t, y, summary["mesh"].values[sel]):
-                ax.annotate(str(mesh), (ti, max(yi, 1e-12)), fontsize=7)
+                ax.annotate(str(mesh), (ti, max(yi, 1e-12)), fontsize=7, xytext=(4, 4 - 10 * k),   # one row
+                            textcoords="offset points", annotation_clip=False, color=f"C{k}")       # per method
     axes[0].set_ylabel("mean |parameter error| (%)")
     axes[1].set_ylabel("RMS measurement residual (%)")
     for ax in axes:
         ax.set_xlabel("identification wall time (s)")
         ax.grid(True, which="both", alpha=0.3)
+        ax.margins(x=0.15, y=0.15)                      # room for the mesh labels beside the points
+        for axis, (low, high) in ((ax.xaxis, ax.get_xlim()), (ax.yaxis, ax.get_ylim())):   # 34, not 3.4×10¹
+            axis.set_major_formatter(FuncFormatter(lambda v, _: f"{v:g}"))
+            within_a_decade = high < 10 * low                                  # no major tick: label minor ones
+            axis.set_minor_formatter(FuncFormatter(lambda v, _, on=within_a_decade: f"{v:.3g}" if on else ""))
     axes[0].legend(fontsize=8)
     _save(fig, path)
 

@@ -138,6 +138,18 @@ def error_table(summary: xr.Dataset) -> pd.DataFrame:
     return table
 
 
+def error_table_with_units(summary: xr.Dataset) -> pd.DataFrame:
+    """:func:`error_table` with a unit in every column name (``parameter_errors.csv``): errors
+    and the residual in %, the wall time in s, the iterations and verdicts as counts."""
+    table = error_table(summary)
+    table["residual"] = (table["residual"] * 100).round(5)
+    names = {p: f"{p} error (%)" for p in IDENTIFIED}
+    names.update({"mean": "mean error (%)", "residual": "RMS measurement residual (%)", "time_s": "wall time (s)",
+                  "iterations": "iterations (mean count)"})
+    names.update({v: f"{v} (runs)" for v in VERDICTS})
+    return table.rename(columns=names)
+
+
 def solution_summary(path, name, kind, config_hash=None) -> xr.Dataset:
     """Diagnostics per posture of a solution or identification dataset, plus nipple displacement."""
     ds = open_dataset(path)
@@ -153,13 +165,19 @@ def solution_summary(path, name, kind, config_hash=None) -> xr.Dataset:
         for key in ("estimate", "interval_low", "interval_high", "interval_decades", "determined", "cost",
                     "standardised_residual"):
             data[key] = ds[key].variable
+        units = ds["target"].attrs["units"]
+        data["measured"] = _var(("posture", "quantity"), ds["target"].values, units,
+                                "measured values M̄ (units per quantity, in the order of quantity)")
+        data["fitted"] = _var(("posture", "quantity"), ds["target"].values * (1.0 + ds["measurement_error"].values[-1]),
+                              units, "the model's measurements at the estimate M(Λ̂) (units per quantity)")
         verdict = {k: ds.attrs[k] for k in ("verdict", "verdict_message", "worst_measurements", "input_notes",
                                             "regime_warning")}
     if "sliding_margin" in ds:
         data["sliding_margin"] = ds["sliding_margin"].variable
     out = xr.Dataset(data, coords={k: ds[k].variable for k in ("posture", "xyz") if k in ds.coords}
                      | ({"parameter": ds["parameter"].variable} if kind == "patient" else {})
-                     | ({"iteration": ds["iteration"].variable} if kind == "patient" else {}))
+                     | ({"iteration": ds["iteration"].variable, "quantity": ds["quantity"].variable}
+                        if kind == "patient" else {}))
     # the Λ that defines the scene: a forward scene's, or a patient's estimate
     out.attrs = provenance("scene", json.loads(ds.attrs.get("parameters", "{}")), config_hash, scene=name,
                            scene_kind=kind, source=str(path),

@@ -1,0 +1,80 @@
+"""An identification as a clinician reads it: the estimate with its 95 % intervals, the fit
+verdict, and the measurements against the model's, in clinical units (mm, cm², ml).
+
+Used by ``breastcore show`` on a patient summary or an identification dataset.
+"""
+
+from __future__ import annotations
+
+import json
+
+#: Clinical unit and factor from SI of each measured quantity (the patient files' defaults).
+QUANTITY_UNITS = {"volume": ("ml", 1e6), "area": ("cm²", 1e4), "height": ("mm", 1e3),
+                  "frontal_depth": ("mm", 1e3), "back_depth": ("mm", 1e3)}
+#: Clinical unit and factor from SI of each identified parameter.
+PARAMETER_UNITS = {"R": ("mm", 1e3), "H": ("mm", 1e3), "lambda_breast": ("Pa", 1.0), "mu_breast": ("Pa", 1.0),
+                   "lambda_skin": ("Pa", 1.0), "mu_skin": ("Pa", 1.0)}
+
+
+def measured_and_fitted(ds):
+    """``(measured, fitted)``, ``(posture, quantity)`` arrays in SI, of a patient summary
+    (``measured``, ``fitted``) or an identification dataset (``target`` and the last
+    ``measurement_error``); None when the dataset has neither."""
+    if "measured" in ds and "fitted" in ds:
+        return ds["measured"].values, ds["fitted"].values
+    if "target" in ds and "measurement_error" in ds:
+        target = ds["target"].values
+        return target, target * (1.0 + ds["measurement_error"].values[-1])
+    return None
+
+
+def estimate_lines(ds) -> list:
+    """One line per parameter: the estimate and its 95 % interval, or why there is none."""
+    lines = ["  estimate (95 % intervals, linearised under the identification's noise model):"]
+    for i, name in enumerate(str(p) for p in ds["parameter"].values):
+        unit, factor = PARAMETER_UNITS.get(name, ("", 1.0))
+        value = float(ds["estimate"].values[i]) * factor
+        if int(ds["determined"].values[i]):
+            low, high = (float(ds[k].values[i]) * factor for k in ("interval_low", "interval_high"))
+            why = f"95 %: {low:.4g} … {high:.4g} {unit}"
+        else:
+            decades = float(ds["interval_decades"].values[i]) if "interval_decades" in ds else float("nan")
+            span = "over 10 decades" if decades > 10 else f"{decades:.2g} decades"
+            why = f"not determined: its 95 % interval spans {span}"
+        lines.append(f"      {name:<14} {value:>10.4g} {unit:<3}  {why}")
+    return lines
+
+
+def fit_lines(ds) -> list:
+    """The measured values beside the fitted ones, per posture and quantity, in clinical units."""
+    pair = measured_and_fitted(ds)
+    if pair is None:
+        return []
+    measured, fitted = pair
+    postures = [str(p) for p in ds["posture"].values]
+    quantities = [str(q) for q in ds["quantity"].values]
+    worst = set(json.loads(ds.attrs.get("worst_measurements", "[]") or "[]"))
+    lines = ["  measured against fitted (the model at the estimate):",
+             f"      {'posture':<10} {'quantity':<20} {'measured':>10} {'fitted':>10} {'difference':>11}"]
+    for i, posture in enumerate(postures):
+        for j, quantity in enumerate(quantities):
+            unit, factor = QUANTITY_UNITS.get(quantity, ("SI", 1.0))
+            m, f = measured[i, j] * factor, fitted[i, j] * factor
+            flag = "  (among the worst)" if f"{posture}:{quantity}" in worst else ""
+            lines.append(f"      {posture:<10} {quantity + ' (' + unit + ')':<20} {m:>10.4g} {f:>10.4g} "
+                         f"{100.0 * (f / m - 1.0):>+10.2f} %{flag}")
+    return lines
+
+
+def clinical_lines(ds, pictures=()) -> list:
+    """The block ``show`` prints first for a patient: verdict, estimate, fit, pictures."""
+    lines = []
+    if "verdict" in ds.attrs:
+        lines.append(f"  fit verdict: {ds.attrs['verdict']}: {ds.attrs.get('verdict_message', '')}")
+    if "estimate" in ds and "determined" in ds:
+        lines += estimate_lines(ds)
+    lines += fit_lines(ds)
+    if pictures:
+        lines.append("  shape pictures: " + ", ".join(str(p) for p in pictures))
+    return lines
+
