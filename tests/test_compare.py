@@ -6,7 +6,8 @@ import numpy as np
 import pytest
 import xarray as xr
 
-from breastcore.report.compare import compare_results, main, render
+from breastcore.cli.main import main as cli_main
+from breastcore.report.compare import compare_results, render
 
 #: The same datasets under other names on the two sides (readable names, other keys), as after a refactoring.
 NAMES_A = {"mesh": "mesh/coarse.nc", "solve": "solve/0123456789.nc", "measure": "measure/89abcdef01.nc",
@@ -149,7 +150,7 @@ def test_exit_status_of_the_command_and_the_module(tmp_path, folder_a, capsys):
     other = build_results(tmp_path / "c", NAMES_B, edit=shift)
     args = parser.parse_args(["compare", str(folder_a), str(other)])
     assert args.run(args) == 1 and "DIFFERENT" in capsys.readouterr().out
-    assert main([str(folder_a), str(other)]) == 1
-    assert main([str(folder_a), str(same)]) == 0
+    assert cli_main(["compare", str(folder_a), str(other)]) == 1
+    assert cli_main(["compare", str(folder_a), str(same)]) == 0
     with pytest.raises(UsageError, match="not a folder holding .nc datasets"):
         parser.parse_args(["compare", str(folder_a), str(tmp_path / "nowhere")])

@@ -25,7 +25,7 @@ def results_folder(text) -> Path:
 
 
 def add_arguments(parser):
-    """Add ``A B [--allow-unpaired]`` to ``parser`` (also used by ``python -m breastcore.report.compare``)."""
+    """Add ``A B [--allow-unpaired]`` to ``parser``."""
     parser.add_argument("folder_a", type=results_folder, metavar="A", help="results folder of one run (e.g. before)")
     parser.add_argument("folder_b", type=results_folder, metavar="B", help="results folder of the other run (after)")
     parser.add_argument("--allow-unpaired", action="store_true",

@@ -12,7 +12,6 @@ from __future__ import annotations
 import dataclasses
 import logging
 import time
-from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -22,9 +21,6 @@ from breastcore.model.parameters import Parameters
 from breastcore.model.postures import Posture
 from breastcore.nonlinear.newton import newton
 from breastcore.nonlinear.saddle import escape_saddle
-
-if TYPE_CHECKING:
-    from breastcore.forward.model import ForwardModel
 
 
 log = logging.getLogger(__name__)
@@ -68,8 +64,9 @@ def _diagnostics(problem, x):
     return float(det.min()), float(stretch)
 
 
-def solve_posture(model: ForwardModel, params: Parameters, posture: Posture, start=None) -> PostureSolution:
-    r"""Minimise ``J_h`` for one posture by adaptive continuation.
+def solve_posture(model, params: Parameters, posture: Posture, start=None) -> PostureSolution:
+    r"""Minimise ``J_h`` for one posture of ``model`` (a :class:`~breastcore.forward.model.ForwardModel`)
+    by adaptive continuation.
 
     The path parameter ``t`` runs over ``[0, 1]`` for the gravity load factor
     (at δ = max(δ, ``smoothing_start``)) and then over ``[1, 2]`` for δ, lowered

@@ -2,21 +2,18 @@
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
 
 import numpy as np
 
 from breastcore.fem.terms import BulkNeoHookean, Chassaignac, Composite, Gravity, SkinMembrane
 from breastcore.model.parameters import Parameters
 
-if TYPE_CHECKING:
-    from breastcore.forward.model import ForwardModel
-
 
 class EquilibriumProblem:
-    """``J_h`` on the free dofs for one parameter set, gravity vector and δ."""
+    """``J_h`` on the free dofs for one parameter set, gravity vector and δ, on the mesh of ``model``
+    (a :class:`~breastcore.forward.model.ForwardModel`)."""
 
-    def __init__(self, model: "ForwardModel", params: Parameters, acceleration, smoothing):
+    def __init__(self, model, params: Parameters, acceleration, smoothing):
         self.model = model
         ref = model.reference(params.R, params.H)
         mesh = model.mesh

@@ -68,7 +68,7 @@ def plan_calibration(plan, scene) -> dict:
         ``uniqueness`` dataset, its truth solution and identification ``runs``),
         ``points`` and what the summary needs to read them (levels, criteria).
     """
-    from breastcore.pipeline.plan import _postures, initial_guesses
+    from breastcore.pipeline.starts import _postures, initial_guesses
 
     postures = _postures(scene["postures"])
     truth = {k: float(scene["truth"][k]) for k in IDENTIFIED}

@@ -1,11 +1,10 @@
 """Compare two workflow results folders dataset by dataset: identical, wall times aside?
 
 The proof of a refactoring: :func:`compare_results` of the results of one configuration run by the code
-before and after it (``breastcore compare A B``, or ``python -m breastcore.report.compare A B``)."""
+before and after it (``breastcore compare A B``)."""
 
 from __future__ import annotations
 
-import argparse
 import os
 import re
 from collections import Counter, deque
@@ -235,16 +234,3 @@ def render(result: ComparisonResult) -> str:
                + (f" ({unpaired} unpaired allowed)" if unpaired else "") if result.identical else
                f"DIFFERENT: {len(result.differences)} differences, {unpaired} unpaired, {result.pairs} pairs compared")
     return "\n".join(lines + [verdict])
-
-
-def main(argv=None) -> int:
-    """``python -m breastcore.report.compare A B [--allow-unpaired]``, as ``breastcore compare``: print the
-    report; return 0 when identical, 1 when not; exit with status 2 on bad input."""
-    from breastcore.cli.compare import DESCRIPTION, add_arguments, run
-    parser = argparse.ArgumentParser(prog="python -m breastcore.report.compare", description=DESCRIPTION)
-    add_arguments(parser)
-    return run(parser.parse_args(argv))
-
-
-if __name__ == "__main__":
-    raise SystemExit(main())
