@@ -8,9 +8,16 @@ from __future__ import annotations
 
 import json
 
-#: Clinical unit and factor from SI of each measured quantity (the patient files' defaults).
-QUANTITY_UNITS = {"volume": ("ml", 1e6), "area": ("cm²", 1e4), "height": ("mm", 1e3),
-                  "frontal_depth": ("mm", 1e3), "back_depth": ("mm", 1e3)}
+from breastcore.io.patient import DEFAULT_UNITS, KIND, UNIT_FACTORS
+
+
+def _clinical(quantity):
+    unit = DEFAULT_UNITS[quantity]
+    return unit.replace("2", "²"), 1.0 / UNIT_FACTORS[KIND[quantity]][unit]
+
+
+#: Clinical unit and factor from SI of each measured quantity: the patient files' default units.
+QUANTITY_UNITS = {quantity: _clinical(quantity) for quantity in DEFAULT_UNITS}
 #: Clinical unit and factor from SI of each identified parameter.
 PARAMETER_UNITS = {"R": ("mm", 1e3), "H": ("mm", 1e3), "lambda_breast": ("Pa", 1.0), "mu_breast": ("Pa", 1.0),
                    "lambda_skin": ("Pa", 1.0), "mu_skin": ("Pa", 1.0)}
