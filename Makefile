@@ -19,7 +19,7 @@ run: $(BIN)/.installed          ## run the default scenes of config.yaml
 	$(BIN)/python -m breastcore.pipeline.run --cores $(CORES) $(ARGS)
 
 # --dist loadfile: one worker runs each test file, so that a module-scoped fixture (the tiny
-# workflow of tests/test_workflow.py) is built once, not once per worker.
+# workflow of tests/pipeline/test_workflow.py) is built once, not once per worker.
 test: $(BIN)/.installed         ## the unit suite (< 10 min on 2 cores)
 	$(BIN)/pytest -n $(CORES) --dist loadfile -q
 

@@ -83,3 +83,14 @@ def test_no_module_over_400_lines_and_no_function_over_85():
                       if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef))
                       and node.end_lineno - node.lineno + 1 > MAX_FUNCTION_LINES]
     assert long_functions == []
+
+
+def test_tests_mirror_the_package_and_never_reach_into_benchmarks():
+    tests = Path(__file__).parent
+    folders = {p.name for p in tests.iterdir() if p.is_dir() and not p.name.startswith((".", "__"))}
+    packages = {p.name for p in ROOT.iterdir() if (p / "__init__.py").exists()}
+    assert folders and folders <= packages, f"test folders that name no breastcore subpackage: {folders - packages}"
+    # a test of a subpackage's module lives in that subpackage's folder
+    reaching = [str(p.relative_to(tests)) for p in tests.rglob("test_*.py")
+                if p.parent != tests and "sys.path" in p.read_text()]
+    assert reaching == []

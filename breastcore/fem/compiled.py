@@ -8,7 +8,7 @@ table ``(n, 3k, 3k)`` (``-1`` for an entry on a fixed dof). They are single-thre
 on purpose: the workflow runs two jobs on two cores.
 
 The numpy blocks (:meth:`BulkNeoHookean.element_hessians`) stay the reference:
-``tests/test_compiled.py`` checks these loops against them entry by entry.
+``tests/fem/test_compiled.py`` checks these loops against them entry by entry.
 """
 
 from __future__ import annotations

@@ -3,7 +3,7 @@ r"""The compressible neo-Hookean law of the breast bulk, written once.
 Every function is plain arithmetic on floats or numpy arrays, so that the same code
 serves the vectorised numpy kernels (:func:`breastcore.fem.kernels.bulk_neo_hookean`,
 the test oracle) and, compiled by numba, the element loops of
-:mod:`breastcore.fem.compiled`. ``tests/test_material.py`` checks its derivatives
+:mod:`breastcore.fem.compiled`. ``tests/fem/test_material.py`` checks its derivatives
 against finite differences.
 
 Notes

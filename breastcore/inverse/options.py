@@ -53,7 +53,7 @@ class IdentificationOptions:
         ``trf`` would otherwise start at ‖z₀‖ ≈ 15, a unit-dependent radius whose
         first trial steps scale moduli by up to e^±10; from ±60 % starts on the
         coarse mesh this recovered Λ̄ in 11 of 20 starts, against 20 of 20 with 0.5
-        (``benchmarks/study_identification.py crime``).
+        (docs/identification.md, "Inverse crime").
     warm_radius : float
         Warm-start a forward solve only from equilibria whose Λ is within this
         relative distance (max over the six parameters) of the new Λ; farther away,

@@ -4,7 +4,7 @@ The defaults live in one place each: :data:`~breastcore.model.parameters.PARAMET
 the fields of :class:`~breastcore.forward.options.SolverOptions` and
 :class:`~breastcore.inverse.options.IdentificationOptions`, the level tables of
 :mod:`breastcore.model.mesh` and :data:`~breastcore.model.postures.PAPER_POSTURES`.
-The README carries their tables between two markers; ``tests/test_docs.py`` fails when
+The README carries their tables between two markers; ``tests/report/test_docs.py`` fails when
 they are stale, and ``python -m breastcore.report.readme_tables README.md`` rewrites them.
 """
 

@@ -49,10 +49,10 @@ identification, on the mesh the identification dataset keeps in `model_reference
 Reading a spec with a missing or unknown field is an error, never a default.
 
 This page is generated from the datasets of the end-to-end test workflow of
-`tests/test_workflow.py` (`TINY`: every stage and scene kind; its synthetic scene has
+`tests/pipeline/test_workflow.py` (`TINY`: every stage and scene kind; its synthetic scene has
 `sensitivity: both` and `tables: [levels]`, so that the finite matrices and the
 discretisation error appear) by `breastcore.report.schema_doc.render`. A test fails when the page is
-stale; `BREASTCORE_WRITE_DATASETS_DOC=1 pytest tests/test_workflow.py` rewrites it. A variable
+stale; `BREASTCORE_WRITE_DATASETS_DOC=1 pytest tests/pipeline/test_workflow.py` rewrites it. A variable
 marked "(some datasets only)" is absent from some datasets of its stage, e.g. a patient's
 measurements have no truth.
 """

@@ -7,7 +7,7 @@ Usage::
 
 An identification run with ``cost_rtol = r`` is the prefix, bit for bit, of the same run
 without it, cut after the first accepted step with ``E(Λⁿ) − E(Λⁿ⁺¹) < r E(Λⁿ)``
-(``tests/test_identify.py``). So the recorded histories of a run without the test
+(``tests/inverse/test_identify.py``). So the recorded histories of a run without the test
 (``<results>/identify/*.nc``: cost, parameters and wall time per iteration) give, for
 every ``r``, where each run would have stopped, its time up to there and its parameter
 error there. The table prints, per mesh level and threshold, the identification time

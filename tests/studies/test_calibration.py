@@ -16,7 +16,7 @@ from breastcore.model.sliding import slip_threshold
 from breastcore.pipeline.config import validate_config
 from breastcore.pipeline.config_files import ConfigError
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 SCHEMA = ROOT / "workflow/schemas/config.schema.yaml"
 SNAKEMAKE = str(Path(sys.executable).parent / "snakemake")
 

@@ -22,7 +22,7 @@ from breastcore.pipeline.run import (
     snakemake_processes,
 )
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 SNAKEMAKE = str(Path(sys.executable).parent / "snakemake")
 
 # A patient on the medium mesh: its identification takes seconds, long enough to be
@@ -69,7 +69,7 @@ def test_option_values_read_snakemake_command_lines():
     (["/v/bin/python", "-m", "snakemake", "--target-jobs", "x"], True),    # a job Snakemake spawns
     (["/v/bin/python", "/w/.snakemake/scripts/tmpab12.identify.py"], True),  # a script: job
     (["/v/bin/python", "-m", "breastcore.pipeline.run", "--cores", "2"], False),
-    (["/v/bin/python", "/v/bin/pytest", "tests/test_workflow.py", "-k", "snakemake"], False),
+    (["/v/bin/python", "/v/bin/pytest", "tests/pipeline/test_workflow.py", "-k", "snakemake"], False),
     (["make", "run"], False)])
 def test_is_snakemake(argv, expected):
     assert is_snakemake(argv) is expected

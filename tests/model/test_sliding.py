@@ -50,7 +50,6 @@ def test_solutions_and_estimates_record_their_margin_and_warning(tmp_path):
     from breastcore.inverse.measurements import QUANTITIES
     from breastcore.inverse.operator import MeasurementModel
     from breastcore.inverse.options import IdentificationOptions
-    from breastcore.io.datasets import open_dataset
     from breastcore.io.identification import identification_dataset
     from breastcore.io.patient import PatientMeasurements
     from breastcore.model.mesh import mesh_level

@@ -12,7 +12,7 @@ from breastcore.io.datasets import open_dataset
 from breastcore.io.solution import equilibrium_residual
 from breastcore.model.mesh import mesh_level
 from breastcore.model.parameters import Parameters
-from breastcore.model.postures import Posture, paper_postures
+from breastcore.model.postures import Posture
 
 
 @pytest.fixture(scope="module")

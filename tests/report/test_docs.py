@@ -5,7 +5,7 @@ from pathlib import Path
 
 from breastcore.model.parameters import PARAMETER_INFO
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 README = (ROOT / "README.md").read_text()
 
 

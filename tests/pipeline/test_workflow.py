@@ -16,7 +16,7 @@ import yaml
 
 from breastcore.model.parameters import Parameters
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 SNAKEMAKE = str(Path(sys.executable).parent / "snakemake")
 
 TINY = {
@@ -306,7 +306,7 @@ def test_datasets_doc_is_rendered_from_this_workflow(workdir):
     if os.environ.get("BREASTCORE_WRITE_DATASETS_DOC") == "1":
         doc.write_text(page)
     assert doc.read_text() == page, "docs/datasets.md is stale: BREASTCORE_WRITE_DATASETS_DOC=1 pytest " \
-                                    "tests/test_workflow.py rewrites it"
+                                    "tests/pipeline/test_workflow.py rewrites it"
 
 
 def test_every_dataset_follows_the_documented_schema(workdir):

@@ -13,7 +13,7 @@ from breastcore.pipeline.config import validate_config
 from breastcore.pipeline.config_files import ConfigError
 from breastcore.pipeline.plan import Plan
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 SCHEMA = ROOT / "workflow/schemas/config.schema.yaml"
 SNAKEMAKE = str(Path(sys.executable).parent / "snakemake")
 DEFAULT = yaml.safe_load((ROOT / "config.yaml").read_text())
