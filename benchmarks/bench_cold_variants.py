@@ -2,7 +2,7 @@
 
 Usage::
 
-    python benchmarks/bench_cold_variants.py [--level medium-thin] [--variants default,smoothing1e-3,projected]
+    python benchmarks/bench_cold_variants.py [--level medium-thin] [--variants default,no-delta-phase,chord0.5,...]
     python benchmarks/bench_cold_variants.py --quick      # the coarse level (``make bench``)
 
 Five parameter points (Λ̄ and four uniform draws within ±40 %, seed 0) are solved
@@ -16,7 +16,14 @@ cold in each paper posture, on the gmsh mesh of ``--level``
 - ``smoothing1e-3`` / ``smoothing1e-2``: the gravity ramp at δ = 1e-3 m / 1e-2 m
   (``smoothing_start``) instead of 1e-4 m;
 - ``projected``: Newton with ``avoid_saddles=True`` from the first iteration (the step
-  from the PSD-projected Hessian whenever the exact one has negative pivots).
+  from the PSD-projected Hessian whenever the exact one has negative pivots);
+- ``no-delta-phase``: the gravity ramp at the target δ = 1e-6 m (``smoothing_start``), so
+  that no δ continuation follows;
+- ``chord0.5``: Newton's chord steps (``reuse_factor = 0.5``: the last factor is reused
+  while the gradient norm halves per iteration), and both together.
+
+``time / default`` is the variant's time over the default's on the same posture, in the
+same process (a warm-up solve first, so that no variant pays the compilation).
 
 ``max ΔM`` is the largest relative difference of the 15 measurements from the default
 variant's at the same point: a non-zero value means the variant's continuation path
@@ -53,6 +60,9 @@ VARIANTS = {
     "smoothing1e-3": ({"smoothing_start": 1e-3}, newton),
     "smoothing1e-2": ({"smoothing_start": 1e-2}, newton),
     "projected": ({}, functools.partial(newton, avoid_saddles=True)),
+    "no-delta-phase": ({"smoothing_start": 1e-6}, newton),
+    "chord0.5": ({"reuse_factor": 0.5}, newton),
+    "no-delta-phase+chord0.5": ({"smoothing_start": 1e-6, "reuse_factor": 0.5}, newton),
 }
 
 
@@ -78,7 +88,8 @@ def main(argv=None):
     truth = np.array([getattr(base, n) for n in IDENTIFIED])
     rng = np.random.default_rng(0)
     points = [truth] + [truth * (1 + rng.uniform(-0.4, 0.4, 6)) for _ in range(4)]
-    reference, energies, rows = {}, {}, []
+    reference, energies, rows, default_seconds = {}, {}, [], {}
+    ForwardModel(mesh).solve(base, paper_postures()[0])              # warm-up: compile the kernels
     try:
         for name in ["default"] + [v for v in args.variants.split(",") if v != "default"]:
             options, minimiser = VARIANTS[name]
@@ -96,11 +107,14 @@ def main(argv=None):
                     change = max(change, float(np.abs(m / reference[(posture.name, i)] - 1).max()))
                     e0 = energies.setdefault((posture.name, i), solution.energy)
                     gaps.append((solution.energy - e0) / abs(e0))
-                rows.append([name, posture.name, " ".join(map(str, iterations)), f"{seconds:.2f}", f"{change:.1e}",
+                default_seconds.setdefault(posture.name, seconds)
+                rows.append([name, posture.name, " ".join(map(str, iterations)), f"{seconds:.2f}",
+                             f"{seconds / default_seconds[posture.name]:.2f}", f"{change:.1e}",
                              f"{min(gaps):.1e} … {max(gaps):.1e}"])
     finally:
         continuation.newton = newton
-    print_table(["variant", "posture", "Newton iterations (5 points)", "time (s)", "max ΔM", "ΔE range"], rows,
+    print_table(["variant", "posture", "Newton iterations (5 points)", "time (s)", "time / default", "max ΔM",
+                 "ΔE range"], rows,
                 f"Cold solves on {args.level}")
 
 

@@ -30,7 +30,8 @@ from breastcore.stages.uniqueness import run_uniqueness
 CONSTANTS = dict(skin_thickness=1.2e-3, density=1010.0, gravity_magnitude=9.8, chassaignac=300.0, smoothing=1e-5,
                  fold_angle=170.0)
 SOLVER = dict(method="newton", rtol=1e-7, stage_rtol=2e-5, smoothing_start=2e-4, max_iterations=90,
-              min_step=1 / 128, cg_max_iterations=15000, max_extensions=3, max_final_attempts=2)
+              min_step=1 / 128, cg_max_iterations=15000, max_extensions=3, max_final_attempts=2,
+              reuse_factor=0.25)
 IDENTIFICATION = dict(method="lm", jacobian="implicit", fd_step=2e-4, cost_tol=1e-13, cost_rtol=0.01, xtol=1e-7,
                       ftol=1e-7, gtol=1e-9, max_iterations=3, noise=0.05, initial_trust_radius=0.4,
                       fixed_iterations=False, warm_radius=0.07)

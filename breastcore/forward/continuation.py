@@ -39,7 +39,7 @@ def _cg_minimiser(model):
 def _minimise(model, problem, z, tolerance):
     if model.options.method == "cg":
         return _cg_minimiser(model)(problem, z, tolerance)
-    result = newton(problem, z, tolerance, model.options.max_iterations)
+    result = newton(problem, z, tolerance, model.options.max_iterations, reuse=model.options.reuse_factor)
     if result.success and result.negative_pivots:                  # an unstable equilibrium: leave it
         return escape_saddle(problem, result, model.options.max_iterations)
     iterations = result.iterations
@@ -52,7 +52,7 @@ def _minimise(model, problem, z, tolerance):
         z = result.x
         log.debug("iteration limit with the energy still falling (%.6e → %.6e): continuing", start_energy,
                   result.energy)
-        result = newton(problem, z, tolerance, model.options.max_iterations)
+        result = newton(problem, z, tolerance, model.options.max_iterations, reuse=model.options.reuse_factor)
         iterations += result.iterations
     return dataclasses.replace(result, iterations=iterations) if iterations != result.iterations else result
 

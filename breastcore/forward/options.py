@@ -31,6 +31,11 @@ class SolverOptions:
         stopped, up to this many more times, before the step is halved. (Far from
         equilibrium, e.g. μ = 15 Pa without skin on all fours, the minimiser needs
         ~200 iterations and halving the load step does not shorten the way.)
+    reuse_factor : float
+        Newton's chord steps (:func:`~breastcore.nonlinear.newton.newton`'s ``reuse``): the
+        last factorised Hessian is reused while the gradient norm falls to at most this
+        fraction per iteration. 0: a fresh factorisation every iteration, the method
+        before issue #21 (kept selectable for the benchmarks).
     max_final_attempts : int
         The final δ step (full gravity, target δ, full tolerance) may fail this many
         times, each from a different converged neighbour, before the solve raises.
@@ -53,6 +58,7 @@ class SolverOptions:
     cg_max_iterations: int = 20000
     max_extensions: int = 4
     max_final_attempts: int = 3
+    reuse_factor: float = 0.0
 
     def __post_init__(self):
         if self.method not in ("newton", "cg"):
@@ -60,5 +66,7 @@ class SolverOptions:
         for name in ("rtol", "stage_rtol", "smoothing_start", "min_step"):
             if not getattr(self, name) > 0:
                 raise ValueError(f"solver option {name} must be > 0")
+        if not 0.0 <= self.reuse_factor < 1.0:
+            raise ValueError("solver option reuse_factor must be in [0, 1)")
         if int(self.max_final_attempts) < 1:
             raise ValueError("solver option max_final_attempts must be ≥ 1")

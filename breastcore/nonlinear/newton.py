@@ -10,6 +10,13 @@ Robustness measures (issue #2, section 4):
   counts as infinite energy;
 - an Armijo test on the energy that falls back to a decrease of the gradient norm
   once energy differences are below round-off (the last digits of a converged solve).
+
+Cost (issue #21): with ``reuse > 0`` an iteration may step with the factor of an earlier
+Hessian (a chord step) while the gradient norm keeps falling fast enough. On ultra-thin
+such an iteration costs a gradient and a triangular solve, ~10 ms, against ~60 ms for an
+assembly and a factorisation; but chord steps contract less, and on ultra-thin cold solves
+took 0.69-1.10× the time, standing the slowest, and ended at another of the standing
+posture's minima at one of five points (docs/benchmarks.md, "Speed"), so the default stays 0.
 """
 
 from __future__ import annotations
@@ -45,6 +52,9 @@ class NewtonResult:
         Energy at ``x``, J.
     projected_steps : int
         Iterations that needed the PSD projection or a shift.
+    factorizations : int
+        Hessians assembled and factorised (≤ ``iterations`` + 2 per iteration with a
+        projection or a shift; fewer than ``iterations`` with chord steps).
     history : tuple of float
         Gradient norm before each iteration, N.
     message : str
@@ -69,6 +79,7 @@ class NewtonResult:
     message: str
     negative_pivots: int | None = None
     inertia_at_x: bool = False
+    factorizations: int = 0
 
 
 #: Iterations without progress after which :func:`newton` stops (see :func:`_stagnated`).
@@ -93,7 +104,7 @@ def _stagnated(history, energies, scale):
     return flat and min(history[-w:]) > 0.9 * best_before
 
 
-def newton(problem, z0, tolerance, max_iterations=50, avoid_saddles=False):
+def newton(problem, z0, tolerance, max_iterations=50, avoid_saddles=False, reuse=0.0):
     """Minimise ``problem`` from ``z0`` until the gradient norm is at most ``tolerance``.
 
     Parameters
@@ -115,6 +126,12 @@ def newton(problem, z0, tolerance, max_iterations=50, avoid_saddles=False):
         stationary point. Used after a saddle was detected (see
         :func:`breastcore.nonlinear.saddle.escape_saddle`); without inertia (SuperLU) it
         has no effect.
+    reuse : float
+        Chord steps: while the last step cut the gradient norm to at most ``reuse`` times
+        its previous value, the next direction is solved with the last exact factor
+        (no new Hessian) and the line search is tried on it; a failed chord step falls
+        back to a fresh factorisation in the same iteration. 0 (default): a fresh
+        factorisation every iteration (the method before issue #21).
 
     Returns
     -------
@@ -132,6 +149,8 @@ def newton(problem, z0, tolerance, max_iterations=50, avoid_saddles=False):
     message = "iteration limit"
     pattern = getattr(problem, "pattern", None)                      # reuse the symbolic factorisation
     inertia = None
+    kept = None                                                      # the last exact factor (chord steps)
+    factorizations = 0
     for it in range(max_iterations + 1):
         g = problem.gradient(z)
         g_norm = _norm(g)
@@ -141,34 +160,71 @@ def newton(problem, z0, tolerance, max_iterations=50, avoid_saddles=False):
             break
         if g_norm <= tolerance:
             return NewtonResult(z, True, it, g_norm, tolerance, energy, projected, tuple(history), "converged",
-                                inertia)
+                                inertia, factorizations=factorizations)
         if it == max_iterations:
             break
         if _stagnated(history, energies, abs(energy) + problem.energy_scale):
             message = f"stagnated: |g| at its round-off floor for {STAGNATION_WINDOW} iterations"
             break
-        accepted = None
-        for mode in ("exact", "project", "shift"):
-            K = problem.hessian(z, project=(mode != "exact"))
-            if mode == "shift":
-                K = shift_diagonal(K, 1e-6 * abs(K.diagonal()).max())
-            factor, d = factor_solve(K, g, pattern)
-            if mode == "exact":
-                inertia = None if factor is None else factor.negative_pivots
-                if avoid_saddles and inertia:
-                    continue
-            if d is None or _dot(g, d) >= -1e-12 * g_norm * _norm(d):
-                continue
-            accepted = _line_search(problem, z, d, energy, g, g_norm, expand=(mode != "exact"))
-            if accepted is not None:
-                projected += mode != "exact"
-                break
+        accepted, mode = None, "chord"
+        if kept is not None and g_norm <= reuse * history[-2]:
+            accepted = _chord_step(problem, kept, z, energy, g, g_norm)
+        if accepted is None:                                         # a fresh factor (and no chord)
+            accepted, mode, factor, tried = _fresh_step(problem, z, energy, g, g_norm, pattern, avoid_saddles)
+            factorizations += tried
+            inertia = None if factor is None else factor.negative_pivots
+            projected += accepted is not None and mode != "exact"
+            kept = factor if accepted is not None and mode == "exact" and reuse > 0 else None
         if accepted is None:
             message = "no descent step found (line search failed)"
             break
         step, z, energy = accepted
         energies.append(energy)
         log.debug("newton it=%d |g|=%.3e step=%.3g E=%.9e mode=%s neg=%s", it, g_norm, step, energy, mode,
-                  factor.negative_pivots)
+                  inertia)
     return NewtonResult(z, False, len(history) - 1, history[-1], tolerance, energy, projected, tuple(history), message,
-                        inertia)
+                        inertia, factorizations=factorizations)
+
+
+def _fresh_step(problem, z, energy, g, g_norm, pattern, avoid_saddles):
+    """A line-search step along ``−K⁻¹ g`` with ``K`` the exact Hessian, else its PSD projection, else
+    that shifted.
+
+    Returns ``(accepted, mode, exact_factor, factorisations)``: ``accepted`` as
+    :func:`~breastcore.nonlinear.line_search._line_search` (None if no mode gave a descent
+    step), the mode that gave it, and the exact Hessian's factor (its inertia; None if it
+    failed).
+    """
+    exact, tried = None, 0
+    for mode in ("exact", "project", "shift"):
+        tried += 1
+        K = problem.hessian(z, project=(mode != "exact"))
+        if mode == "shift":
+            K = shift_diagonal(K, 1e-6 * abs(K.diagonal()).max())
+        factor, d = factor_solve(K, g, pattern)
+        if mode == "exact":
+            exact = factor
+            if avoid_saddles and factor is not None and factor.negative_pivots:
+                continue
+        if d is None or _dot(g, d) >= -1e-12 * g_norm * _norm(d):
+            continue
+        accepted = _line_search(problem, z, d, energy, g, g_norm, expand=(mode != "exact"))
+        if accepted is not None:
+            return accepted, mode, exact, tried
+    return None, mode, exact, tried
+
+
+def _chord_step(problem, factor, z, energy, g, g_norm):
+    """A line-search step along ``−K₀⁻¹ g`` with an earlier exact factor ``K₀``; None if it is no descent.
+
+    Only a full step is taken: a chord direction that needs backtracking says that ``K₀``
+    no longer models the energy here, and a fresh factorisation is cheaper than a search.
+    """
+    try:
+        d = -factor.solve(g)
+    except (RuntimeError, ValueError):
+        return None
+    if not np.all(np.isfinite(d)) or _dot(g, d) >= -1e-12 * g_norm * _norm(d):
+        return None
+    accepted = _line_search(problem, z, d, energy, g, g_norm, min_step=1.0)
+    return accepted
