@@ -9,7 +9,7 @@ Runs, in this process, the identification jobs of ``config/paper.yaml`` named as
 ``level:n`` (the n-th job of that level with ``cost_rtol``, in plan order) through
 ``breastcore.stages.identify.run_identify``, as the workflow's ``identify`` rule does, and
 prints the job's time and the part spent in the final branch check (a cold re-solve of
-every posture at the estimate, ``identify._check_branch``). Medians of ``--repeats``.
+every posture at the estimate, ``branch.check_branch``). Medians of ``--repeats``.
 The datasets go to a temporary folder. Needs the scene's meshes and measurements in
 ``results/`` (run the paper scene, or its mesh and measure jobs, first).
 """
@@ -29,7 +29,7 @@ sys.path.insert(0, str(ROOT))
 
 from benchmarks._common import header, print_table  # noqa: E402
 
-from breastcore.inverse import identify  # noqa: E402
+from breastcore.inverse import branch  # noqa: E402
 from breastcore.pipeline.plan import plan_from_files  # noqa: E402
 from breastcore.stages.identify import run_identify  # noqa: E402
 
@@ -47,7 +47,7 @@ def job_spec(plan, level, nth):
 def timed_job(spec, results, out):
     """(job seconds, branch-check seconds) of one run of the job."""
     spent = []
-    check = identify._check_branch
+    check = branch.check_branch
 
     def timed_check(*args, **kwargs):
         tic = time.perf_counter()
@@ -56,14 +56,14 @@ def timed_job(spec, results, out):
         finally:
             spent.append(time.perf_counter() - tic)
 
-    identify._check_branch = timed_check
+    branch.check_branch = timed_check
     try:
         tic = time.perf_counter()
         inputs = [str(Path(results) / Path(spec[key]).relative_to("results")) for key in ("measurements", "mesh")]
         run_identify(spec, *inputs, out)
         return time.perf_counter() - tic, sum(spent)
     finally:
-        identify._check_branch = check
+        branch.check_branch = check
 
 
 def main(argv=None):

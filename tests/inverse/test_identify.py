@@ -11,7 +11,8 @@ from linear_model import LinearModel  # tests/linear_model.py
 from breastcore.cli.main import main
 from breastcore.forward.model import ForwardModel
 from breastcore.forward.records import SolveError
-from breastcore.inverse.identify import from_unconstrained, identify, to_unconstrained, unconstrained_chain
+from breastcore.inverse.identify import identify
+from breastcore.inverse.transforms import from_unconstrained, to_unconstrained, unconstrained_chain
 from breastcore.inverse.operator import MeasurementModel
 from breastcore.inverse.options import IdentificationOptions
 from breastcore.io.datasets import open_dataset
@@ -324,8 +325,8 @@ def test_m_of_lambda_does_not_depend_on_call_history(problem):
 
 def test_branch_check_is_skipped_when_the_estimate_was_solved_cold(monkeypatch):
     """Cold estimate equilibria: no cold re-solve and drift 0; warm ones are still checked."""
-    from breastcore.inverse import identify as identify_module
-    from breastcore.inverse.identify import IdentificationResult
+    from breastcore.inverse.branch import check_branch
+    from breastcore.inverse.history import IdentificationRun
     mm = LinearModel(5e-2)
     calls = []
     solve = mm.solve
@@ -334,15 +335,15 @@ def test_branch_check_is_skipped_when_the_estimate_was_solved_cold(monkeypatch):
     target = mm.measure(solve(TRUTH, mm.warm_starts()))
     for cold, expected_calls in ((True, []), (False, [True])):
         calls.clear()
-        result = IdentificationResult(True, "", TRUTH)
-        result.parameters.append(TRUTH.copy())
-        result.cost.append(1.0)
+        run = IdentificationRun(mm, target, np.ones_like(target))
+        run.success = True
+        run.parameters.append(TRUTH.copy())
+        run.cost.append(1.0)
         warm = mm.warm_starts()
-        result.solutions = solve(TRUTH, None if cold else warm)
-        identify_module._check_branch(mm, target, np.ones_like(target), IdentificationOptions(), result,
-                                      lambda *a: None, lambda *a: None, warm)
+        run.solutions = solve(TRUTH, None if cold else warm)
+        check_branch(mm, target, np.ones_like(target), IdentificationOptions(), run, lambda *a: None, warm)
         assert calls == expected_calls
-        assert (result.branch_drift == 0.0) == cold
+        assert (run.branch_drift == 0.0) == cold
 
 
 def test_fewer_weighted_measurements_than_parameters_is_refused_before_any_solve():

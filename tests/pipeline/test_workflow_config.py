@@ -306,6 +306,7 @@ def test_compute_hash_covers_exactly_the_modules_the_compute_rules_import(tmp_pa
 @pytest.mark.parametrize("module, changed", [
     ("studies/stability.py", {"stability"}),
     ("inverse/identify.py", {"identify", "sensitivity", "extreme"}),
+    ("inverse/lm.py", {"identify", "sensitivity", "extreme"}),
     ("forward/model.py", {"solve", "measure", "identify", "sensitivity", "stability", "extreme", "calibrate", "uniqueness"}),
     ("studies/extreme_guesses.py", {"extreme"}),
     ("studies/calibration.py", {"calibrate", "uniqueness"}),
