@@ -5,7 +5,7 @@ BIN    := $(VENV)/bin
 CORES  ?= 2
 ARGS   ?=
 
-.PHONY: run test test-slow bench bench-full report clean-results
+.PHONY: run test test-slurm test-slow bench bench-full report clean-results
 
 $(BIN)/.installed: pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -18,10 +18,24 @@ $(BIN)/.installed: pyproject.toml
 run: $(BIN)/.installed          ## run the default scenes of config.yaml
 	$(BIN)/python -m breastcore.pipeline.run --cores $(CORES) $(ARGS)
 
+# Debian's Chromium: tests/pipeline/test_workflow.py renders the HTML report in it, as a person
+# would see it. Installed with apt-get when missing (root, or a user allowed to run apt-get).
+CHROMIUM ?= /usr/bin/chromium
+$(CHROMIUM):
+	apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq chromium
+
 # --dist loadfile: one worker runs each test file, so that a module-scoped fixture (the tiny
 # workflow of tests/pipeline/test_workflow.py) is built once, not once per worker.
-test: $(BIN)/.installed         ## the unit suite (< 10 min on 2 cores)
+test: $(BIN)/.installed $(CHROMIUM)  ## the unit suite (< 10 min on 2 cores)
 	$(BIN)/pytest -n $(CORES) --dist loadfile -q
+
+# A real single-node SLURM on this machine runs a scene through Snakemake's SLURM executor
+# (tests/pipeline/test_slurm.py): installs Debian's slurm-wlm and munge and the plugin; root.
+test-slurm: $(BIN)/.installed   ## the workflow through a real SLURM (a few minutes)
+	command -v slurmctld >/dev/null || (apt-get update -qq && \
+	  DEBIAN_FRONTEND=noninteractive apt-get install -y -qq slurm-wlm munge)
+	$(BIN)/python -m pip install --quiet -e ".[test,slurm]"
+	$(BIN)/pytest -q -m slurm tests/pipeline/test_slurm.py
 
 test-slow: $(BIN)/.installed    ## long studies kept out of the unit suite
 	$(BIN)/pytest -q -m slow

@@ -28,6 +28,8 @@ with config_errors_exit():
                                      workflow.config_settings.replace_workflow_config, SCHEMA))
     config.update(validate_config(config, SCHEMA))
 
+report: "workflow/report/workflow.rst"
+
 include: "workflow/rules/common.smk"
 include: "workflow/rules/mesh.smk"
 include: "workflow/rules/solve.smk"

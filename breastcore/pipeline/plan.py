@@ -177,20 +177,21 @@ class Plan:
         return {"summary": summary, "figures": self.figures(name, spec) if self.report else [], **spec}
 
     def figures(self, name, spec):
-        """Report files of a scene (PNG pictures and CSV tables)."""
+        """Report files of a scene (PNG pictures, and tables as CSV with their HTML page)."""
         folder = f"{self.results}/scenes/{name}"
         if spec["kind"] == "stability":
-            return [f"{folder}/stability_map.png", f"{folder}/stability.csv"]
+            return [f"{folder}/stability_map.png", f"{folder}/stability.csv", f"{folder}/stability.html"]
         if spec["kind"] == "calibration":
             from breastcore.pipeline.calibration_plan import calibration_figures
             return calibration_figures(folder)
         if spec["kind"] == "synthetic":
-            out = [f"{folder}/convergence.png", f"{folder}/parameter_errors.csv", f"{folder}/error_vs_runtime.png"]
+            out = [f"{folder}/convergence.png", f"{folder}/parameter_errors.csv", f"{folder}/parameter_errors.html",
+                   f"{folder}/error_vs_runtime.png"]
         else:
             out = [f"{folder}/shape_{p}.{ext}" for p in spec["postures"] for ext in ("png", "vtu")]
-            out.append(f"{folder}/diagnostics.csv")
+            out += [f"{folder}/diagnostics.csv", f"{folder}/diagnostics.html"]
             if spec["kind"] == "patient":
-                out += [f"{folder}/convergence.png", f"{folder}/parameters.csv"]
+                out += [f"{folder}/convergence.png", f"{folder}/parameters.csv", f"{folder}/parameters.html"]
         if spec.get("sensitivity"):
             out.append(f"{folder}/sensitivity.png")
         return out
@@ -244,12 +245,18 @@ class Plan:
         spec = self.scene(name)
         return spec["identification"] if spec["kind"] == "patient" else spec["solution"]
 
+    def front_page_scenes(self):
+        """``(name, summary, PNG figures)`` of each scene in ``run_scenes``, for the report's first page."""
+        return [(name, self.scenes[name]["summary"], [f for f in self.scenes[name]["figures"] if f.endswith(".png")])
+                for name in self.run_scenes]
+
     def all_targets(self):
-        """Outputs of the scenes in ``run_scenes`` (all scenes if it is empty)."""
+        """Outputs of the scenes in ``run_scenes`` (all scenes if it is empty), and the report's
+        first page when the report is enabled."""
         out = []
         for name in self.run_scenes:
             out += [self.scenes[name]["summary"], *self.scenes[name]["figures"]]
-        return out
+        return out + ([f"{self.results}/report/front.html"] if self.report and self.run_scenes else [])
 
 
 def plan_from_files(*paths, schema=None) -> Plan:

@@ -35,41 +35,60 @@ def measured_and_fitted(ds):
     return None
 
 
-def estimate_lines(ds) -> list:
-    """One line per parameter: the estimate and its 95 % interval, or why there is none."""
-    lines = ["  estimate (95 % intervals, linearised under the identification's noise model):"]
+def estimate_rows(ds) -> list:
+    """Per parameter: ``(name, estimate, unit, interval)``, the estimate in clinical units and
+    ``interval`` either ``(low, high)`` or the reason there is none (a str)."""
+    rows = []
     for i, name in enumerate(str(p) for p in ds["parameter"].values):
         unit, factor = PARAMETER_UNITS.get(name, ("", 1.0))
         value = float(ds["estimate"].values[i]) * factor
         if int(ds["determined"].values[i]):
-            low, high = (float(ds[k].values[i]) * factor for k in ("interval_low", "interval_high"))
-            why = f"95 %: {low:.4g} … {high:.4g} {unit}"
+            interval = tuple(float(ds[k].values[i]) * factor for k in ("interval_low", "interval_high"))
         else:
             decades = float(ds["interval_decades"].values[i]) if "interval_decades" in ds else float("nan")
             span = "over 10 decades" if decades > 10 else f"{decades:.2g} decades"
-            why = f"not determined: its 95 % interval spans {span}"
+            interval = f"not determined: its 95 % interval spans {span}"
+        rows.append((name, value, unit, interval))
+    return rows
+
+
+def estimate_lines(ds) -> list:
+    """One line per parameter: the estimate and its 95 % interval, or why there is none."""
+    lines = ["  estimate (95 % intervals, linearised under the identification's noise model):"]
+    for name, value, unit, interval in estimate_rows(ds):
+        why = interval if isinstance(interval, str) else f"95 %: {interval[0]:.4g} … {interval[1]:.4g} {unit}"
         lines.append(f"      {name:<14} {value:>10.4g} {unit:<3}  {why}")
     return lines
 
 
-def fit_lines(ds) -> list:
-    """The measured values beside the fitted ones, per posture and quantity, in clinical units."""
+def fit_rows(ds) -> list:
+    """Per posture and quantity: ``(posture, quantity, unit, measured, fitted, worst)`` in clinical
+    units, ``worst`` whether the identification named it among its worst-fitted; [] without a fit."""
     pair = measured_and_fitted(ds)
     if pair is None:
         return []
     measured, fitted = pair
-    postures = [str(p) for p in ds["posture"].values]
-    quantities = [str(q) for q in ds["quantity"].values]
     worst = set(json.loads(ds.attrs.get("worst_measurements", "[]") or "[]"))
+    rows = []
+    for i, posture in enumerate(str(p) for p in ds["posture"].values):
+        for j, quantity in enumerate(str(q) for q in ds["quantity"].values):
+            unit, factor = QUANTITY_UNITS.get(quantity, ("SI", 1.0))
+            rows.append((posture, quantity, unit, measured[i, j] * factor, fitted[i, j] * factor,
+                         f"{posture}:{quantity}" in worst))
+    return rows
+
+
+def fit_lines(ds) -> list:
+    """The measured values beside the fitted ones, per posture and quantity, in clinical units."""
+    rows = fit_rows(ds)
+    if not rows:
+        return []
     lines = ["  measured against fitted (the model at the estimate):",
              f"      {'posture':<10} {'quantity':<20} {'measured':>10} {'fitted':>10} {'difference':>11}"]
-    for i, posture in enumerate(postures):
-        for j, quantity in enumerate(quantities):
-            unit, factor = QUANTITY_UNITS.get(quantity, ("SI", 1.0))
-            m, f = measured[i, j] * factor, fitted[i, j] * factor
-            flag = "  (among the worst)" if f"{posture}:{quantity}" in worst else ""
-            lines.append(f"      {posture:<10} {quantity + ' (' + unit + ')':<20} {m:>10.4g} {f:>10.4g} "
-                         f"{100.0 * (f / m - 1.0):>+10.2f} %{flag}")
+    for posture, quantity, unit, m, f, worst in rows:
+        flag = "  (among the worst)" if worst else ""
+        lines.append(f"      {posture:<10} {quantity + ' (' + unit + ')':<20} {m:>10.4g} {f:>10.4g} "
+                     f"{100.0 * (f / m - 1.0):>+10.2f} %{flag}")
     return lines
 
 

@@ -238,13 +238,14 @@ def test_an_undetermined_parameter_is_marked_in_show_and_the_parameters_csv(tmp_
 
     from breastcore.cli.browse import describe
     from breastcore.io.datasets import open_dataset
+    from breastcore.report.html_tables import write_table
     from breastcore.report.summaries import parameter_table
     ds = open_dataset(_identification(tmp_path / "id.nc", "consistent", True, determined=(1, 1, 0, 1, 0, 1)))
     shown = describe(ds)
     line = next(l for l in shown.splitlines() if "not determined by these measurements" in l)
     assert line.split(": ")[-1] == "lambda_breast, lambda_skin", shown
     csv = tmp_path / "parameters.csv"
-    parameter_table(ds).to_csv(csv, index=False)                  # as the parameter_table rule writes it
+    write_table(parameter_table(ds), csv, tmp_path / "parameters.html", "parameters")   # as the rule writes it
     table = pd.read_csv(csv).set_index("parameter")
     undetermined = table["determined"].str.startswith("no: not determined by these measurements")
     assert list(table.index[undetermined]) == ["lambda_breast", "lambda_skin"]

@@ -125,8 +125,8 @@ def test_solution_dataset_follows_its_contract(workdir):
 
 def test_scene_outputs_exist(workdir):
     scenes = workdir / "results/scenes"
-    for name in ("shape_standing.png", "shape_standing.vtu", "parameters.csv", "convergence.png",
-                 "diagnostics.csv", "summary.nc"):
+    for name in ("shape_standing.png", "shape_standing.vtu", "parameters.csv", "parameters.html", "convergence.png",
+                 "diagnostics.csv", "diagnostics.html", "summary.nc"):
         assert (scenes / "alice" / name).stat().st_size > 0
     assert (scenes / "syn/sensitivity.png").exists() and (scenes / "syn/parameter_errors.csv").exists()
     assert (scenes / "syn/error_vs_runtime.png").exists()
@@ -206,9 +206,9 @@ def test_changing_one_patient_measurement_reruns_only_that_patient(workdir):
     config = copy.deepcopy(TINY)
     config["scenes"]["alice"]["postures"]["standing"]["volume"] = 650
     jobs = planned_jobs(workdir, config)
-    assert Counter(r for r, _ in jobs) == PATIENT_JOBS + Counter({"all": 1})
+    assert Counter(r for r, _ in jobs) == PATIENT_JOBS + Counter({"all": 1, "report_front_page": 1})
     for rule, output in jobs:
-        assert rule in ("all", "measure", "identify", "sensitivity") or output.startswith("results/scenes/alice/"), \
+        assert rule in ("all", "report_front_page", "measure", "identify", "sensitivity") or output.startswith("results/scenes/alice/"), \
             (rule, output)
     _new_stage_files(workdir, jobs)
 
@@ -221,11 +221,11 @@ def test_changing_one_scene_mesh_reruns_only_that_scene(workdir):
     # identifications on it and the first one's sensitivity; the truth solve and its
     # measurements are reused. Then the scene's own outputs.
     assert Counter(r for r, _ in jobs) == Counter({
-        "all": 1, "mesh": 1, "solve": 1, "identify": 2, "sensitivity": 1, "scene_summary": 1,
+        "all": 1, "report_front_page": 1, "mesh": 1, "solve": 1, "identify": 2, "sensitivity": 1, "scene_summary": 1,
         "convergence_figure": 1, "error_table": 1, "error_vs_runtime_figure": 1, "sensitivity_figure": 1})
     assert ("mesh", "results/mesh/medium-thin.nc") in jobs
     for rule, output in jobs:
-        assert rule in ("all", "mesh", "solve", "identify", "sensitivity") or output.startswith("results/scenes/syn/"), \
+        assert rule in ("all", "report_front_page", "mesh", "solve", "identify", "sensitivity") or output.startswith("results/scenes/syn/"), \
             (rule, output)
     _new_stage_files(workdir, jobs)
 
@@ -235,9 +235,9 @@ def test_adding_a_patient_adds_only_its_jobs(workdir):
     config["scenes"]["bob"] = copy.deepcopy(config["scenes"]["alice"])
     config["scenes"]["bob"]["postures"]["fours"]["height"] = 100
     jobs = planned_jobs(workdir, config)
-    assert Counter(r for r, _ in jobs) == PATIENT_JOBS + Counter({"all": 1})
+    assert Counter(r for r, _ in jobs) == PATIENT_JOBS + Counter({"all": 1, "report_front_page": 1})
     for rule, output in jobs:
-        assert rule in ("all", "measure", "identify", "sensitivity") or output.startswith("results/scenes/bob/"), \
+        assert rule in ("all", "report_front_page", "measure", "identify", "sensitivity") or output.startswith("results/scenes/bob/"), \
             (rule, output)
     _new_stage_files(workdir, jobs)
 
@@ -347,13 +347,47 @@ def test_report_is_self_contained_html_with_every_figure(workdir):
     shapes = [f"shape_{p}.png" for p in sorted(TINY["scenes"]["alice"]["postures"])]
     assert index == {
         ("Shapes", "alice"): shapes, ("Shapes", "fwd"): ["shape_standing.png"],
-        ("Identification", "alice"): ["convergence.png", "parameters.csv"],
-        ("Identification", "syn"): ["convergence.png", "parameter_errors.csv"],
+        ("Identification", "alice"): ["convergence.png", "parameters.html"],
+        ("Identification", "syn"): ["convergence.png", "parameter_errors.html"],
         ("Sensitivity", "alice"): ["sensitivity.png"], ("Sensitivity", "syn"): ["sensitivity.png"],
-        ("Solver diagnostics", "alice"): ["diagnostics.csv"], ("Solver diagnostics", "fwd"): ["diagnostics.csv"],
+        ("Solver diagnostics", "alice"): ["diagnostics.html"], ("Solver diagnostics", "fwd"): ["diagnostics.html"],
         ("Error against run time", "syn"): ["error_vs_runtime.png"],
-        ("Stability", "grid"): ["stability.csv", "stability_map.png"],
+        ("Stability", "grid"): ["stability.html", "stability_map.png"],
         ("Calibration", "cal"): ["table2_residual.png"]}
+
+
+#: Debian's chromium, which `make test` installs (tests/pipeline/test_workflow.py needs it).
+CHROMIUM = "/usr/bin/chromium"
+CHROMIUM_FLAGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
+                  "--disable-background-networking", "--disable-component-update", "--disable-sync"]
+
+
+def test_the_report_opens_on_the_patient_findings_in_headless_chromium(workdir, tmp_path):
+    """The report as a person sees it: rendered by its own scripts in a browser, the first page
+    is breastcore's findings, the patient first, its tables as HTML rows in clinical units."""
+    assert Path(CHROMIUM).exists(), "Debian's chromium is needed: `make test` installs it (apt-get install chromium)"
+    out = snakemake(workdir, "--report", "browser.html")
+    assert out.returncode == 0, out.stderr[-2000:]
+    dom = subprocess.run([CHROMIUM, *CHROMIUM_FLAGS, f"--user-data-dir={tmp_path}", "--virtual-time-budget=20000",
+                          "--dump-dom", (workdir / "browser.html").as_uri()],
+                         capture_output=True, text=True, timeout=300).stdout
+    # the rendered page, not the report's data: its attributes are unescaped HTML
+    start = dom.index('<div class="document" id="breastcore-what-each-scene-found">')
+    page = dom[start:]
+    assert re.match(r'<div class="document"[^>]*>\s*<h1 class="title">breastcore: what each scene found</h1>', page)
+    headings = re.findall(r"<h2[^>]*>(.*?)</h2>", page)
+    assert headings[0] == "Patient alice" and "Forward solve fwd" in headings
+    alice = page[:page.index(headings[1])]
+    assert "Fit verdict:" in alice
+    rows = [re.findall(r"<td[^>]*>(.*?)</td>", row) for row in re.findall(r"<tr[^>]*>(.*?)</tr>", alice, re.S)]
+    fit = {(r[0], r[1]): r for r in rows if len(r) == 7}
+    assert len(fit) == 15                                     # 5 quantities × 3 postures
+    measured = TINY["scenes"]["alice"]["postures"]
+    for (posture, quantity), row in fit.items():
+        unit = {"volume": "ml", "area": "cm²"}.get(quantity, "mm")
+        assert row[2] == unit and float(row[3]) == measured[posture][quantity], row
+    assert {r[0] for r in rows if len(r) == 6} == {"R", "H", "lambda_breast", "mu_breast", "lambda_skin", "mu_skin"}
+    assert len(re.findall(r'<img class="breastcore" src="data:image/png;base64,', alice)) == 3   # its shapes
 
 
 def test_a_scene_plans_only_what_it_needs(tmp_path):
@@ -372,7 +406,7 @@ def test_a_scene_plans_only_what_it_needs(tmp_path):
     rules = Counter(re.findall(r"^(?:local)?rule (\w+):", out.stdout, re.M))
     assert rules == Counter({"all": 1, "mesh": 1, "measure": 1, "identify": 1, "scene_summary": 1,
                              "shape_picture": 3, "shape_vtu": 3, "diagnostics_table": 1, "convergence_figure": 1,
-                             "parameter_table": 1})
+                             "parameter_table": 1, "report_front_page": 1})
     assert "shape_bent45" not in out.stdout and "results/scenes/p/shape_lean.png" in out.stdout
 
     schema = ROOT / "workflow/schemas/config.schema.yaml"

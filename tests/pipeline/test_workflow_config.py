@@ -628,7 +628,7 @@ def test_every_job_asks_a_scheduler_for_threads_memory_and_time(tmp_path):
     for extra in ([], ["results_page", "--configfile", str(ROOT / "config/paper.yaml")]):
         out = _dry_run(tmp_path, *extra)
         assert out.returncode == 0, out.stderr[-2000:]
-        jobs = re.findall(r"^rule (\w+):\n(?:    .*\n)*?    output: (\S+?)[,\n](?:    .*\n)*?    resources: (.*)$",
+        jobs = re.findall(r"^rule (\w+):\n(?:    .*\n)*?    output: (\S+?)(?:,.*)?\n(?:    .*\n)*?    resources: (.*)$",
                           out.stdout, re.M)
         rules = [r for r in re.findall(r"^rule (\w+):$", out.stdout, re.M) if r != "all"]    # the target only
         assert len(jobs) == len(rules) > 10

@@ -49,7 +49,9 @@ rule convergence_figure:
 
 rule parameter_table:
     input: lambda w: scene_of(w)["identification"]
-    output: report(f"{RESULTS}/scenes/{{scene}}/parameters.csv", caption="../report/parameters.rst", category="Identification", subcategory="{scene}")
+    output:
+        csv=f"{RESULTS}/scenes/{{scene}}/parameters.csv",
+        html=report(f"{RESULTS}/scenes/{{scene}}/parameters.html", caption="../report/parameters.rst", category="Identification", subcategory="{scene}"),
     log: f"{RESULTS}/logs/scenes/{{scene}}/parameters.log"
     benchmark: f"{RESULTS}/benchmarks/scenes/{{scene}}/parameters.tsv"
     threads: THREADS
@@ -64,7 +66,9 @@ rule parameter_table:
 
 rule error_table:
     input: f"{RESULTS}/scenes/{{scene}}/summary.nc"
-    output: report(f"{RESULTS}/scenes/{{scene}}/parameter_errors.csv", caption="../report/errors.rst", category="Identification", subcategory="{scene}")
+    output:
+        csv=f"{RESULTS}/scenes/{{scene}}/parameter_errors.csv",
+        html=report(f"{RESULTS}/scenes/{{scene}}/parameter_errors.html", caption="../report/errors.rst", category="Identification", subcategory="{scene}"),
     log: f"{RESULTS}/logs/scenes/{{scene}}/errors.log"
     benchmark: f"{RESULTS}/benchmarks/scenes/{{scene}}/errors.tsv"
     threads: THREADS
@@ -79,7 +83,9 @@ rule error_table:
 
 rule diagnostics_table:
     input: lambda w: PLAN.shape_source(w.scene)
-    output: report(f"{RESULTS}/scenes/{{scene}}/diagnostics.csv", caption="../report/diagnostics.rst", category="Solver diagnostics", subcategory="{scene}")
+    output:
+        csv=f"{RESULTS}/scenes/{{scene}}/diagnostics.csv",
+        html=report(f"{RESULTS}/scenes/{{scene}}/diagnostics.html", caption="../report/diagnostics.rst", category="Solver diagnostics", subcategory="{scene}"),
     log: f"{RESULTS}/logs/scenes/{{scene}}/diagnostics.log"
     benchmark: f"{RESULTS}/benchmarks/scenes/{{scene}}/diagnostics.tsv"
     threads: THREADS
@@ -138,7 +144,9 @@ rule stability_map:
 
 
 use rule stability_map as stability_table with:
-    output: report(f"{RESULTS}/scenes/{{scene}}/stability.csv", caption="../report/stability.rst", category="Stability", subcategory="{scene}")
+    output:
+        csv=f"{RESULTS}/scenes/{{scene}}/stability.csv",
+        html=report(f"{RESULTS}/scenes/{{scene}}/stability.html", caption="../report/stability.rst", category="Stability", subcategory="{scene}"),
     log: f"{RESULTS}/logs/scenes/{{scene}}/stability_table.log"
     benchmark: f"{RESULTS}/benchmarks/scenes/{{scene}}/stability_table.tsv"
 
@@ -162,3 +170,20 @@ rule results_page:
         code=CODE,
     conda: "../envs/breastcore.yaml"
     script: "../scripts/results_page.py"
+
+
+# The report's first page (workflow/report/workflow.rst inserts it): each scene's findings.
+rule report_front_page:
+    input: lambda w: [path for _, summary, pictures in PLAN.front_page_scenes() for path in (summary, *pictures)]
+    output: f"{RESULTS}/report/front.html"
+    log: f"{RESULTS}/logs/report_front_page.log"
+    benchmark: f"{RESULTS}/benchmarks/report_front_page.tsv"
+    threads: THREADS
+    resources:
+        mem_mb=DEFAULT_MEM_MB,
+        runtime=DEFAULT_MINUTES,
+    params:
+        scenes=lambda w: PLAN.front_page_scenes(),
+        code=CODE,
+    conda: "../envs/breastcore.yaml"
+    script: "../scripts/front_page.py"
