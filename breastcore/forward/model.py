@@ -12,6 +12,7 @@ import dataclasses
 import numpy as np
 
 from breastcore.fem.assembly import FreeDofAssembler
+from breastcore.fem.loads import Gravity
 from breastcore.forward.continuation import solve_posture
 from breastcore.forward.equilibrium import EquilibriumProblem
 from breastcore.forward.options import SolverOptions
@@ -72,7 +73,10 @@ class ForwardModel:
 
         Without gravity (g = 0) the load is zero; the force scale ``μ R²`` replaces it.
         """
-        load = float(np.linalg.norm(self.problem(params, posture).gravity.load))
+        # only the gravity term: the same load vector as the problem's, without building the others
+        accel = posture.gravity(params.gravity_magnitude)
+        load = float(np.linalg.norm(Gravity(self.reference(params.R, params.H), self.mesh.tets, params.density,
+                                            accel).load))
         return self.options.rtol * (load if load > 0 else params.mu_breast * params.R**2)
 
     def tangent(self, params, posture, position):

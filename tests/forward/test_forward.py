@@ -138,3 +138,12 @@ def test_energy_at_fixed_deformation_is_differentiable_in_R_and_H(coarse):
                   for h in (1e-7, 1e-8)]
         assert np.isfinite(slopes).all() and abs(slopes[0]) > 0
         assert slopes[0] == pytest.approx(slopes[1], rel=1e-5)
+
+
+def test_the_tolerance_is_rtol_times_the_problems_gravity_load_to_the_bit(coarse):
+    """ForwardModel.tolerance builds only the gravity term; it must be the full problem's load norm."""
+    model = ForwardModel(coarse)
+    for params in (Parameters(), Parameters(R=0.07, H=0.03, density=1100.0)):
+        for posture in (Posture("standing", 0.0), Posture("lean", 30.0), Posture("fours", 90.0)):
+            load = np.linalg.norm(model.problem(params, posture).gravity.load)
+            assert model.tolerance(params, posture) == model.options.rtol * load

@@ -258,10 +258,12 @@ def test_the_calibration_config_plans_its_scene_and_nothing_else(tmp_path):
     # per c: a calibrate job per level and the reference, a probe, the truth solve, its
     # measurements and the identifications; the meshes (each level, and the truth's by gmsh)
     assert rules == Counter({"calibrate": c * levels, "uniqueness": c, "solve": c, "measure": c, "identify": c * runs,
-                             "mesh": levels + 1, "scene_summary": 1, "calibration_figure": 1, "all": 1})
+                             "mesh": levels + 1, "scene_summary": 1, "calibration_figure": 1, "report_front_page": 1,
+                             "all": 1})
     outputs = re.findall(r"^    output: (.*)$", out.stdout, re.M)
     assert all(o.startswith(("results/calibrate/", "results/uniqueness/", "results/solve/", "results/measure/",
-                             "results/identify/", "results/mesh/", "results/scenes/calibration/")) for o in outputs)
+                             "results/identify/", "results/mesh/", "results/scenes/calibration/",
+                             "results/report/front.html")) for o in outputs)
     assert not any("example_patient" in o or "paper_synthetic" in o for o in outputs)
 
 
