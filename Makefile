@@ -20,7 +20,9 @@ run: $(BIN)/.installed          ## run the default scenes of config.yaml
 
 # Debian's Chromium: tests/pipeline/test_workflow.py renders the HTML report in it, as a person
 # would see it. Installed with apt-get when missing (root, or a user allowed to run apt-get).
+# Another Chromium: make test CHROMIUM=/path/to/chromium (no install then).
 CHROMIUM ?= /usr/bin/chromium
+export CHROMIUM
 $(CHROMIUM):
 	apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq chromium
 

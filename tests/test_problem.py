@@ -76,6 +76,17 @@ def test_a_spec_with_missing_or_unknown_fields_is_refused_not_defaulted(edit):
         ProblemSpec.from_dict(data)
 
 
+def test_a_spec_written_before_reuse_factor_reads_with_the_method_of_then():
+    """Datasets written before the chord-step option have no ``reuse_factor``: they were computed
+    with a fresh factorisation every iteration, which is reuse_factor 0, whatever today's value."""
+    spec = non_default_spec()
+    data = spec.as_dict()
+    del data["solver"]["reuse_factor"]
+    read = ProblemSpec.from_dict(data)
+    assert read.solver.reuse_factor == 0.0 and spec.solver.reuse_factor != 0.0
+    assert read == dataclasses.replace(spec, solver=dataclasses.replace(spec.solver, reuse_factor=0.0))
+
+
 def test_a_dataset_without_a_spec_names_its_stage():
     import xarray as xr
     with pytest.raises(ProblemSpecError, match="stage 'identify'"):

@@ -42,7 +42,7 @@ def _minimise(model, problem, z, tolerance):
     result = newton(problem, z, tolerance, model.options.max_iterations, reuse=model.options.reuse_factor)
     if result.success and result.negative_pivots:                  # an unstable equilibrium: leave it
         return escape_saddle(problem, result, model.options.max_iterations)
-    iterations = result.iterations
+    iterations, factorizations = result.iterations, result.factorizations
     for _ in range(model.options.max_extensions):                  # still going downhill: keep going
         if result.success or result.message != "iteration limit":
             break
@@ -54,7 +54,10 @@ def _minimise(model, problem, z, tolerance):
                   result.energy)
         result = newton(problem, z, tolerance, model.options.max_iterations, reuse=model.options.reuse_factor)
         iterations += result.iterations
-    return dataclasses.replace(result, iterations=iterations) if iterations != result.iterations else result
+        factorizations += result.factorizations
+    if iterations == result.iterations:
+        return result
+    return dataclasses.replace(result, iterations=iterations, factorizations=factorizations)
 
 
 def _diagnostics(problem, x):

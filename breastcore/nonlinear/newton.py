@@ -62,7 +62,8 @@ class NewtonResult:
     negative_pivots : int or None
         Negative eigenvalues of the exact Hessian (PARDISO's inertia; ``None`` if
         unknown) where it was last factorised: at ``x`` if ``inertia_at_x``, else at
-        the iterate before the last step (a Newton solve factorises before it steps).
+        the iterate before the last step (a Newton solve factorises before it steps),
+        or, after chord steps (``reuse > 0``), at the iterate of the factor they reused.
     inertia_at_x : bool
         Whether ``negative_pivots`` is the inertia at ``x`` itself. Non-zero
         inertia at ``x`` means the equilibrium is a saddle, not a minimum.

@@ -8,8 +8,10 @@ test wrote) and starts and stops the daemons. Jobs inside an allocation call ``s
 reads the default configuration path, not ``SLURM_CONF``.
 """
 
+import os
+import re
 import shutil
-import socket
+import signal
 import subprocess
 import time
 from pathlib import Path
@@ -30,7 +32,10 @@ SCENE = {"report": {"enabled": False},
          "scenes": {"alice": {**TINY["scenes"]["alice"], "sensitivity": "none"}, "fwd": TINY["scenes"]["fwd"]}}
 
 
-def _conf(state: Path, host: str) -> str:
+def _conf(state: Path, node: str) -> str:
+    """The cluster's configuration; ``node`` is ``slurmd -C``'s line for this machine (its real CPUs
+    and memory: a node declared bigger than it is never becomes idle)."""
+    host = re.match(r"NodeName=(\S+)", node).group(1)
     return f"""{MARKER}
 ClusterName=breastcore-test
 SlurmctldHost={host}
@@ -55,29 +60,45 @@ SlurmdSpoolDir={state}/spool
 StateSaveLocation={state}/state
 SlurmctldLogFile={state}/slurmctld.log
 SlurmdLogFile={state}/slurmd.log
-NodeName={host} CPUs=2 RealMemory=4000 State=UNKNOWN
+{node} State=UNKNOWN
 PartitionName=main Nodes=ALL Default=YES MaxTime=INFINITE State=UP
 """
 
 
+def _stop(pid_file: Path):
+    """Stop the daemon whose pid ``pid_file`` holds (the one this test started, nothing else)."""
+    try:
+        os.kill(int(pid_file.read_text().split()[0]), signal.SIGTERM)
+    except (OSError, ValueError, IndexError):
+        pass
+
+
+def _munge_works() -> bool:
+    return subprocess.run(["munge", "-n"], capture_output=True).returncode == 0
+
+
 @pytest.fixture(scope="module")
 def cluster(tmp_path_factory):
-    for program in ("slurmctld", "slurmd", "munged", "sbatch", "squeue"):
+    for program in ("slurmctld", "slurmd", "munged", "munge", "sbatch", "squeue", "sinfo", "scontrol"):
         assert shutil.which(program), f"{program} not found: `make test-slurm` installs slurm-wlm and munge"
     assert SLURM_CONF.exists() is False or MARKER in SLURM_CONF.read_text(), \
         f"{SLURM_CONF} exists and is not this test's: refusing to replace a real cluster's configuration"
     state = tmp_path_factory.mktemp("slurm")
     (state / "spool").mkdir()
     (state / "state").mkdir()
-    SLURM_CONF.parent.mkdir(parents=True, exist_ok=True)
-    SLURM_CONF.write_text(_conf(state, socket.gethostname().split(".")[0]))
-    if subprocess.run(["pgrep", "-x", "munged"], capture_output=True).returncode != 0:
-        Path("/run/munge").mkdir(parents=True, exist_ok=True)
-        shutil.chown("/run/munge", "munge", "munge")
-        subprocess.run(["runuser", "-u", "munge", "--", "munged"], check=True)
-    subprocess.run(["slurmctld"], check=True)
-    subprocess.run(["slurmd"], check=True)
+    node = subprocess.run(["slurmd", "-C"], capture_output=True, text=True, check=True).stdout.splitlines()[0]
+    munge_pid = Path("/run/munge/munged.pid")
+    started_munge = False
     try:
+        SLURM_CONF.parent.mkdir(parents=True, exist_ok=True)
+        SLURM_CONF.write_text(_conf(state, node))
+        if not _munge_works():
+            munge_pid.parent.mkdir(parents=True, exist_ok=True)
+            shutil.chown(munge_pid.parent, "munge", "munge")
+            subprocess.run(["runuser", "-u", "munge", "--", "munged"], check=True)
+            started_munge = True
+        subprocess.run(["slurmctld"], check=True)
+        subprocess.run(["slurmd"], check=True)
         for _ in range(60):
             info = subprocess.run(["sinfo", "-h", "-o", "%T"], capture_output=True, text=True)
             if info.stdout.strip() == "idle":
@@ -89,7 +110,10 @@ def cluster(tmp_path_factory):
         yield state
     finally:
         subprocess.run(["scontrol", "shutdown"], capture_output=True)
-        subprocess.run(["pkill", "-x", "slurmd"], capture_output=True)
+        _stop(state / "slurmctld.pid")
+        _stop(state / "slurmd.pid")
+        if started_munge:
+            _stop(munge_pid)
         SLURM_CONF.unlink(missing_ok=True)
 
 

@@ -4,6 +4,7 @@ import copy
 import json
 import os
 import re
+import shutil
 import stat
 import subprocess
 import sys
@@ -356,10 +357,20 @@ def test_report_is_self_contained_html_with_every_figure(workdir):
         ("Calibration", "cal"): ["table2_residual.png"]}
 
 
-#: Debian's chromium, which `make test` installs (tests/pipeline/test_workflow.py needs it).
-CHROMIUM = "/usr/bin/chromium"
-CHROMIUM_FLAGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
-                  "--disable-background-networking", "--disable-component-update", "--disable-sync"]
+#: Debian's chromium, which `make test` installs (override: the CHROMIUM environment variable).
+CHROMIUM = os.environ.get("CHROMIUM") or shutil.which("chromium") or "/usr/bin/chromium"
+CHROMIUM_FLAGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-dev-shm-usage", "--disable-quic",
+                  "--no-first-run", "--disable-background-networking", "--disable-component-update", "--disable-sync"]
+
+
+def test_a_report_before_any_run_says_it_has_no_findings(tmp_path):
+    """Without results/report/front.html (no run yet, or the report turned off) the report still
+    builds, and its first page says why it has no findings: docutils would fail on the missing page."""
+    (tmp_path / "config.yaml").write_text(yaml.safe_dump({"report": {"enabled": False},
+                                                          "scenes": {"fwd": TINY["scenes"]["fwd"]}}))
+    out = snakemake(tmp_path, "--report", "r.html")
+    assert out.returncode == 0, out.stderr[-2000:]
+    assert "breastcore: no findings in this report" in (tmp_path / "r.html").read_text(errors="replace")
 
 
 def test_the_report_opens_on_the_patient_findings_in_headless_chromium(workdir, tmp_path):
