@@ -207,7 +207,7 @@ def _fresh_step(problem, z, energy, g, g_norm, pattern, avoid_saddles):
             exact = factor
             if avoid_saddles and factor is not None and factor.negative_pivots:
                 continue
-        if d is None or _dot(g, d) >= -1e-12 * g_norm * _norm(d):
+        if d is None or not _descends(g, g_norm, d):
             continue
         accepted = _line_search(problem, z, d, energy, g, g_norm, expand=(mode != "exact"))
         if accepted is not None:
@@ -225,7 +225,11 @@ def _chord_step(problem, factor, z, energy, g, g_norm):
         d = -factor.solve(g)
     except (RuntimeError, ValueError):
         return None
-    if not np.all(np.isfinite(d)) or _dot(g, d) >= -1e-12 * g_norm * _norm(d):
+    if not np.all(np.isfinite(d)) or not _descends(g, g_norm, d):
         return None
-    accepted = _line_search(problem, z, d, energy, g, g_norm, min_step=1.0)
-    return accepted
+    return _line_search(problem, z, d, energy, g, g_norm, min_step=1.0)
+
+
+def _descends(g, g_norm, d):
+    """Whether ``d`` is a descent direction for the gradient ``g`` (beyond round-off)."""
+    return not _dot(g, d) >= -1e-12 * g_norm * _norm(d)

@@ -68,8 +68,9 @@ def _patient(ds, pictures):
                      f"{html.escape(ds.attrs.get('verdict_message', ''))}</p>")
     if "estimate" in ds and "determined" in ds:
         parts += ["<h3>Estimate and 95 % intervals</h3>", table_html(estimate_table(ds))]
-    if fit_rows(ds):
-        parts += ["<h3>Measured against fitted</h3>", table_html(fit_table(ds))]
+    fit = fit_table(ds)
+    if not fit.empty:
+        parts += ["<h3>Measured against fitted</h3>", table_html(fit)]
     return parts + _pictures("Shapes", pictures)
 
 

@@ -26,9 +26,10 @@ def table_html(frame: pd.DataFrame, index: bool = False) -> str:
 
 def table_page(frame: pd.DataFrame, title: str, index: bool = False) -> str:
     """A standalone HTML page of ``frame`` under the heading ``title``."""
-    return (f"<!doctype html>\n<html lang=\"en\"><head><meta charset=\"utf-8\"><title>{html.escape(title)}</title>"
-            f"<style>body {{ font-family: system-ui, sans-serif; margin: 1em; }}{TABLE_CSS}</style></head>\n<body><h2>{html.escape(title)}</h2>\n{table_html(frame, index)}"
-            "</body></html>\n")
+    title = html.escape(title)
+    return (f"<!doctype html>\n<html lang=\"en\"><head><meta charset=\"utf-8\"><title>{title}</title>"
+            f"<style>body {{ font-family: system-ui, sans-serif; margin: 1em; }}{TABLE_CSS}</style></head>\n"
+            f"<body><h2>{title}</h2>\n{table_html(frame, index)}</body></html>\n")
 
 
 def write_table(frame: pd.DataFrame, csv_path, html_path, title: str, index: bool = False) -> None:

@@ -203,15 +203,23 @@ def _new_stage_files(workdir, jobs, rules=("mesh", "solve", "measure", "identify
             assert not (workdir / output).exists(), (rule, output)
 
 
+#: Jobs that any change of a scene reruns: the target and the report's first page.
+RUN_JOBS = Counter({"all": 1, "report_front_page": 1})
+
+
+def _only_scene_jobs(workdir, jobs, scene, stages):
+    """Every job is a stage job (``stages``), a run job or an output of ``scene``; stage outputs are new."""
+    for rule, output in jobs:
+        assert rule in (*RUN_JOBS, *stages) or output.startswith(f"results/scenes/{scene}/"), (rule, output)
+    _new_stage_files(workdir, jobs)
+
+
 def test_changing_one_patient_measurement_reruns_only_that_patient(workdir):
     config = copy.deepcopy(TINY)
     config["scenes"]["alice"]["postures"]["standing"]["volume"] = 650
     jobs = planned_jobs(workdir, config)
-    assert Counter(r for r, _ in jobs) == PATIENT_JOBS + Counter({"all": 1, "report_front_page": 1})
-    for rule, output in jobs:
-        assert rule in ("all", "report_front_page", "measure", "identify", "sensitivity") or output.startswith("results/scenes/alice/"), \
-            (rule, output)
-    _new_stage_files(workdir, jobs)
+    assert Counter(r for r, _ in jobs) == PATIENT_JOBS + RUN_JOBS
+    _only_scene_jobs(workdir, jobs, "alice", ("measure", "identify", "sensitivity"))
 
 
 def test_changing_one_scene_mesh_reruns_only_that_scene(workdir):
@@ -221,14 +229,11 @@ def test_changing_one_scene_mesh_reruns_only_that_scene(workdir):
     # The level mesh, the level's solve at the truth (the `levels` table), both methods'
     # identifications on it and the first one's sensitivity; the truth solve and its
     # measurements are reused. Then the scene's own outputs.
-    assert Counter(r for r, _ in jobs) == Counter({
-        "all": 1, "report_front_page": 1, "mesh": 1, "solve": 1, "identify": 2, "sensitivity": 1, "scene_summary": 1,
+    assert Counter(r for r, _ in jobs) == RUN_JOBS + Counter({
+        "mesh": 1, "solve": 1, "identify": 2, "sensitivity": 1, "scene_summary": 1,
         "convergence_figure": 1, "error_table": 1, "error_vs_runtime_figure": 1, "sensitivity_figure": 1})
     assert ("mesh", "results/mesh/medium-thin.nc") in jobs
-    for rule, output in jobs:
-        assert rule in ("all", "report_front_page", "mesh", "solve", "identify", "sensitivity") or output.startswith("results/scenes/syn/"), \
-            (rule, output)
-    _new_stage_files(workdir, jobs)
+    _only_scene_jobs(workdir, jobs, "syn", ("mesh", "solve", "identify", "sensitivity"))
 
 
 def test_adding_a_patient_adds_only_its_jobs(workdir):
@@ -236,11 +241,8 @@ def test_adding_a_patient_adds_only_its_jobs(workdir):
     config["scenes"]["bob"] = copy.deepcopy(config["scenes"]["alice"])
     config["scenes"]["bob"]["postures"]["fours"]["height"] = 100
     jobs = planned_jobs(workdir, config)
-    assert Counter(r for r, _ in jobs) == PATIENT_JOBS + Counter({"all": 1, "report_front_page": 1})
-    for rule, output in jobs:
-        assert rule in ("all", "report_front_page", "measure", "identify", "sensitivity") or output.startswith("results/scenes/bob/"), \
-            (rule, output)
-    _new_stage_files(workdir, jobs)
+    assert Counter(r for r, _ in jobs) == PATIENT_JOBS + RUN_JOBS
+    _only_scene_jobs(workdir, jobs, "bob", ("measure", "identify", "sensitivity"))
 
 
 def test_an_unchanged_patient_copy_shares_every_stage_file(workdir):
@@ -248,7 +250,7 @@ def test_an_unchanged_patient_copy_shares_every_stage_file(workdir):
     config["scenes"]["carol"] = copy.deepcopy(config["scenes"]["alice"])     # same data: same hashed files
     jobs = planned_jobs(workdir, config)
     assert Counter(r for r, _ in jobs) == PATIENT_JOBS - Counter({"measure": 1, "identify": 1, "sensitivity": 1}) \
-        + Counter({"all": 1, "report_front_page": 1})
+        + RUN_JOBS
 
 
 def test_lint_is_clean():
@@ -415,9 +417,9 @@ def test_a_scene_plans_only_what_it_needs(tmp_path):
     out = snakemake(tmp_path, "-n")
     assert out.returncode == 0, out.stderr
     rules = Counter(re.findall(r"^(?:local)?rule (\w+):", out.stdout, re.M))
-    assert rules == Counter({"all": 1, "mesh": 1, "measure": 1, "identify": 1, "scene_summary": 1,
-                             "shape_picture": 3, "shape_vtu": 3, "diagnostics_table": 1, "convergence_figure": 1,
-                             "parameter_table": 1, "report_front_page": 1})
+    assert rules == RUN_JOBS + Counter({"mesh": 1, "measure": 1, "identify": 1, "scene_summary": 1,
+                                        "shape_picture": 3, "shape_vtu": 3, "diagnostics_table": 1,
+                                        "convergence_figure": 1, "parameter_table": 1})
     assert "shape_bent45" not in out.stdout and "results/scenes/p/shape_lean.png" in out.stdout
 
     schema = ROOT / "workflow/schemas/config.schema.yaml"
