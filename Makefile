@@ -11,6 +11,7 @@ $(BIN)/.installed: pyproject.toml
 	$(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install --quiet --upgrade pip
 	$(BIN)/python -m pip install --quiet -e ".[test]"
+	$(BIN)/python -m breastcore.fem.warm   # numba's cache, so that no job compiles
 	touch $@
 
 # snakemake --cores 2, after clearing what a killed run left (its lock, its unfinished jobs):

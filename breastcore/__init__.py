@@ -7,6 +7,8 @@ is silent, ``shared/spec/model.md`` fixes the definitions (see README).
 
 from __future__ import annotations
 
+import functools
+
 __version__ = "0.1.0"
 
 
@@ -97,6 +99,14 @@ def _imported_modules(root, entries):
                 continue
             seen.add(path)
             package = package_of(path)
-            for node in ast.walk(ast.parse(path.read_text())):
+            for node in _import_statements(path.read_text()):
                 todo.extend(t for t in targets(node, package) if path_of(t) is not None)
     return sorted(seen | {root / "__init__.py"})
+
+
+@functools.lru_cache(maxsize=None)
+def _import_statements(source: str):
+    """The import statements of a module's source, parsed once per text: the workflow hashes nine stages at start-up."""
+    import ast
+
+    return tuple(n for n in ast.walk(ast.parse(source)) if isinstance(n, (ast.Import, ast.ImportFrom)))

@@ -11,12 +11,15 @@ from __future__ import annotations
 import dataclasses
 import json
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
-from breastcore.forward.model import ForwardModel
 from breastcore.forward.options import SolverOptions
 from breastcore.inverse.options import IdentificationOptions
 from breastcore.model.parameters import Parameters
 from breastcore.model.postures import Posture, paper_postures
+
+if TYPE_CHECKING:                      # numba and PARDISO load with it: a spec is read without them
+    from breastcore.forward.model import ForwardModel
 
 #: Name of the dataset attribute that holds the JSON of the spec.
 ATTRIBUTE = "problem"
@@ -61,6 +64,7 @@ class ProblemSpec:
 
         ``Λ ↦ M(Λ)`` is :meth:`breastcore.inverse.operator.MeasurementModel.from_problem`.
         """
+        from breastcore.forward.model import ForwardModel
         return ForwardModel(mesh, self.solver)
 
     def warm_radius(self) -> float:

@@ -29,7 +29,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.stats import chi2
 
 from breastcore.model.parameters import IDENTIFIED
 
@@ -93,6 +92,7 @@ def fit_verdict(converged, relative_error, weights, noise, labels, parameters=le
     t = np.where(used, r / noise, 0.0)
     statistic = float(np.sum(t[used] ** 2))
     dof = int(used.sum()) - parameters
+    from scipy.stats import chi2     # 1 s to import: only where a verdict is made
     threshold = float(chi2.ppf(FIT_QUANTILE, dof)) if dof > 0 else float("nan")
     size = np.where(np.isnan(t), np.inf, np.abs(t))                  # a NaN residual is the worst
     tested = np.flatnonzero(used)                                       # names and residuals from the same indices

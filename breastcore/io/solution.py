@@ -2,16 +2,20 @@
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 import xarray as xr
 
-from breastcore.forward.model import ForwardModel
 from breastcore.forward.records import PostureSolution
 from breastcore.io.datasets import _var, mesh_coords, mesh_from_dataset, mesh_variables, parameter_variables, provenance
 from breastcore.model.parameters import Parameters
 from breastcore.model.postures import Posture
 from breastcore.model.sliding import REGIME_MARGIN, sliding_margin
 from breastcore.problem import ProblemSpec
+
+if TYPE_CHECKING:                      # numba and PARDISO load with it: not needed to read a dataset
+    from breastcore.forward.model import ForwardModel
 
 #: Per-posture solver diagnostics stored in the dataset: name -> (units, long name).
 DIAGNOSTICS = {

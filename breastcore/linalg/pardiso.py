@@ -8,19 +8,23 @@ installed (MKL is x86-64 only; elsewhere :mod:`breastcore.linalg.factorization` 
 from __future__ import annotations
 
 import ctypes
+import functools
+import importlib.util
 import os
 
 import numpy as np
 
-try:
-    import pypardiso as _pardiso
-except ImportError:  # MKL is x86-64 only: SuperLU instead
-    _pardiso = None
 
-
+@functools.cache
 def available() -> bool:
-    """Whether MKL PARDISO (through ``pypardiso``) is installed."""
-    return _pardiso is not None
+    """Whether MKL PARDISO (through ``pypardiso``) is installed (MKL is x86-64 only: SuperLU otherwise)."""
+    return importlib.util.find_spec("pypardiso") is not None
+
+
+def _mkl_runtime_name() -> str:
+    """The MKL runtime that ``pypardiso`` ships, imported only when a factorisation needs it (0.25 s)."""
+    import pypardiso
+    return pypardiso.ps.libmkl._name
 
 
 #: Threads PARDISO may use (environment variable ``BREASTCORE_PARDISO_THREADS``, default 1).
@@ -56,7 +60,7 @@ class _Pardiso:
 
     def __init__(self, n, ia, ja, single=False):
         if _Pardiso._function is None:
-            lib = ctypes.CDLL(os.environ.get("PYPARDISO_MKL_RT") or _pardiso.ps.libmkl._name)   # read, never set
+            lib = ctypes.CDLL(os.environ.get("PYPARDISO_MKL_RT") or _mkl_runtime_name())   # read, never set
             _set_pardiso_threads(lib)
             fn = lib.pardiso
             p_int = ctypes.POINTER(ctypes.c_int32)

@@ -2,7 +2,7 @@
 
 import numpy as np
 import pytest
-from test_energy import deformed
+from deformations import deformed
 
 from breastcore.fem.assembly import FreeDofAssembler, element_dofs
 from breastcore.fem.terms import BulkNeoHookean, Chassaignac, SkinMembrane

@@ -6,6 +6,7 @@ import pytest
 
 from breastcore.fem.assembly import FreeDofAssembler
 from breastcore.fem.terms import BulkNeoHookean, Chassaignac, Composite, Gravity, SkinMembrane, project_psd
+from deformations import deformed
 
 
 def make_terms(nodes, tets, top, bottom, delta=1e-3):
@@ -15,14 +16,6 @@ def make_terms(nodes, tets, top, bottom, delta=1e-3):
         Gravity(nodes, tets, density=1000.0, acceleration=[0.0, 6.9, -6.9]),
         Chassaignac(nodes, bottom, coefficient=100.0, smoothing=delta),
     ]
-
-
-def deformed(nodes, rng, amplitude=0.15):
-    """A random, strongly non-linear but admissible deformation."""
-    scale = np.ptp(nodes)
-    A = np.eye(3) + 0.3 * rng.standard_normal((3, 3)) / 3
-    x = nodes @ A.T + amplitude * scale * rng.uniform(-0.5, 0.5, nodes.shape) / 3
-    return x
 
 
 def fd_gradient(f, x, h):

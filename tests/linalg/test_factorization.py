@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 import scipy.sparse as sp
-from test_energy import deformed
+from deformations import deformed
 
 from breastcore.fem.assembly import FreeDofAssembler
 from breastcore.fem.terms import BulkNeoHookean

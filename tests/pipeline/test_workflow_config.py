@@ -217,8 +217,8 @@ def test_empty_scene_set_is_refused():
 def test_unknown_truth_mesh_names_its_own_key():
     msg = _bad(lambda c: c["scenes"]["paper_synthetic"].update(truth_mesh="huge"))
     assert msg.startswith("config key scenes.paper_synthetic.truth_mesh: unknown mesh level 'huge'"), msg
-    msg = _bad(lambda c: c["scenes"]["error_vs_runtime"]["methods"][2].update(meshes=["huge"]))
-    assert msg.startswith("config key scenes.error_vs_runtime.methods[2].meshes:"), msg
+    msg = _bad(lambda c: c["scenes"]["error_vs_runtime"]["methods"][1].update(meshes=["huge"]))
+    assert msg.startswith("config key scenes.error_vs_runtime.methods[1].meshes:"), msg
 
 
 def test_patient_posture_key_is_a_name_with_an_optional_angle():
