@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import copy
+
 import numpy as np
 
 from breastcore.fem import compiled, kernels, material
@@ -44,6 +46,16 @@ class BulkNeoHookean:
         # |τ| ∇N_a·∇N_b: the constant part of the μ δ_ik block.
         self._volume_GG = np.einsum("naj,nbj->nab", self.shape_gradients, self.shape_gradients) \
             * self.volume[:, None, None]
+
+    def with_moduli(self, lam, mu) -> "BulkNeoHookean":
+        """The same term on the same reference geometry with Lamé parameters ``(lam, mu)`` (Pa).
+
+        Shares the reference arrays (volumes, shape gradients), which depend on the
+        geometry only: building them is most of the constructor's cost.
+        """
+        term = copy.copy(self)
+        term.lam, term.mu = float(lam), float(mu)
+        return term
 
     def deformation_gradient(self, x):
         """``F`` of every tet, ``(T, 3, 3)``."""

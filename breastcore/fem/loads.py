@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import copy
+
 import numpy as np
 
 from breastcore.fem import kernels
@@ -30,6 +32,12 @@ class Gravity:
         np.add.at(mass, tets, np.repeat(density * np.abs(volume)[:, None] / 4.0, 4, axis=1))
         self.nodal_mass = mass
         self.load = mass[:, None] * np.asarray(acceleration, dtype=float)[None, :]
+
+    def with_acceleration(self, acceleration) -> "Gravity":
+        """The same nodal masses under another acceleration ``a_g`` (m s⁻²)."""
+        term = copy.copy(self)
+        term.load = self.nodal_mass[:, None] * np.asarray(acceleration, dtype=float)[None, :]
+        return term
 
     def admissible(self, x):
         return True
@@ -68,6 +76,12 @@ class Chassaignac:
         self.weight = coefficient * weight[nodes]
         self.anchor = reference[nodes]
         self.smoothing = float(smoothing)
+
+    def with_smoothing(self, smoothing) -> "Chassaignac":
+        """The same weights and anchors with another smoothing length δ (m)."""
+        term = copy.copy(self)
+        term.smoothing = float(smoothing)
+        return term
 
     def admissible(self, x):
         return True

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import copy
+
 import numpy as np
 
 from breastcore.fem import kernels
@@ -34,6 +36,16 @@ class SkinMembrane:
         self.G_inv = np.linalg.inv(G)
         self.area = 0.5 * np.sqrt(self.det_G)
         self._dofs = element_dofs(self.connectivity)
+
+    def with_moduli(self, lam, mu, thickness) -> "SkinMembrane":
+        """The same term on the same reference triangles with ``λ_s, μ_s`` (Pa) and ``t_s`` (m).
+
+        Shares the reference metrics (``G⁻¹``, ``det G``, areas), which depend on the geometry only.
+        """
+        term = copy.copy(self)
+        term.lam, term.mu = float(lam) * thickness, float(mu) * thickness
+        term.thickness = float(thickness)
+        return term
 
     def _edges(self, x):
         e = _TRIANGLE_EDGES @ x[self.connectivity]

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from breastcore.fem.terms import BulkNeoHookean, Chassaignac, Composite, Gravity, SkinMembrane
+from breastcore.fem.terms import Composite
 from breastcore.model.parameters import Parameters
 
 
@@ -15,18 +15,11 @@ class EquilibriumProblem:
 
     def __init__(self, model, params: Parameters, acceleration, smoothing):
         self.model = model
-        ref = model.reference(params.R, params.H)
-        mesh = model.mesh
-        self.reference = ref
+        self.reference = model.reference(params.R, params.H)
         self.assembler = model.assembler(params.fold_angle)
-        self.bulk = BulkNeoHookean(ref, mesh.tets, params.lambda_breast, params.mu_breast)
-        self.gravity = Gravity(ref, mesh.tets, params.density, acceleration)
-        self.energy = Composite([
-            self.bulk,
-            SkinMembrane(ref, mesh.skin_triangles, params.lambda_skin, params.mu_skin, params.skin_thickness),
-            self.gravity,
-            Chassaignac(ref, mesh.back_triangles, params.chassaignac, smoothing),
-        ])
+        bulk, skin, gravity, sliding = model.energy_terms(params, acceleration, smoothing)
+        self.bulk, self.gravity = bulk, gravity
+        self.energy = Composite([bulk, skin, gravity, sliding])
         load = float(np.linalg.norm(self.gravity.load))
         self.energy_scale = max(load, 1e-30) * params.R
         self.length_scale = params.R

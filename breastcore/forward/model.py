@@ -7,12 +7,15 @@ through the smooth :class:`~breastcore.model.geometry.CapMap`; each posture is s
 
 from __future__ import annotations
 
+import collections
 import dataclasses
 
 import numpy as np
 
 from breastcore.fem.assembly import FreeDofAssembler
-from breastcore.fem.loads import Gravity
+from breastcore.fem.bulk import BulkNeoHookean
+from breastcore.fem.loads import Chassaignac, Gravity
+from breastcore.fem.skin import SkinMembrane
 from breastcore.forward.continuation import solve_posture
 from breastcore.forward.equilibrium import EquilibriumProblem
 from breastcore.forward.options import SolverOptions
@@ -23,6 +26,10 @@ from breastcore.model.geometry import CapMap
 from breastcore.model.mesh import CapMesh, refold
 from breastcore.model.parameters import Parameters
 from breastcore.model.postures import Posture
+
+#: Bytes of ``(R, H)`` reference geometries a :class:`ForwardModel` keeps, the newest always: 0.4 MB each on
+#: medium, 60 MB on fine50k. An implicit Jacobian visits five (Λ, and R ± h, H ± h for every posture).
+GEOMETRY_CACHE_BYTES = 256 * 2**20
 
 
 class ForwardModel:
@@ -40,10 +47,58 @@ class ForwardModel:
         self.options = options
         self.map = CapMap(mesh)
         self._assemblers = {}
+        self._geometries = collections.OrderedDict()
 
     def reference(self, R, H):
-        """Gravity-free node positions for ``(R, H)``, ``(N, 3)`` m."""
-        return self.map.positions(R, H)
+        """Gravity-free node positions for ``(R, H)``, ``(N, 3)`` m (read-only: cached)."""
+        return self._geometry(R, H)["reference"]
+
+    def _geometry(self, R, H):
+        """The reference positions and the terms' reference arrays at ``(R, H)``, built once.
+
+        A continuation builds a problem per step and posture at the same ``(R, H)``, and
+        the identification's trial points and Jacobian revisit a few: the most recent
+        are kept, up to :data:`GEOMETRY_CACHE_BYTES`. The terms are templates; a
+        problem takes copies with its moduli, load and δ (``with_moduli``…), so its
+        arrays are those a fresh build would compute, bit for bit.
+        """
+        key = (float(R), float(H))
+        if key in self._geometries:
+            self._geometries.move_to_end(key)
+            return self._geometries[key]
+        reference = self.map.positions(R, H)
+        reference.flags.writeable = False
+        mesh = self.mesh
+        geometry = dict(reference=reference,
+                        bulk=BulkNeoHookean(reference, mesh.tets, 0.0, 0.0),
+                        skin=SkinMembrane(reference, mesh.skin_triangles, 0.0, 0.0, 1.0),
+                        gravity={}, chassaignac={})
+        geometry["bytes"] = sum(a.nbytes for a in vars(geometry["bulk"]).values() if isinstance(a, np.ndarray)) \
+            + sum(a.nbytes for a in vars(geometry["skin"]).values() if isinstance(a, np.ndarray)) + reference.nbytes
+        self._geometries[key] = geometry
+        while len(self._geometries) > 1 and sum(g["bytes"] for g in self._geometries.values()) > GEOMETRY_CACHE_BYTES:
+            self._geometries.popitem(last=False)
+        return geometry
+
+    def energy_terms(self, params: Parameters, acceleration, smoothing):
+        """The four terms of ``J_h`` at ``params`` under ``acceleration`` (m s⁻²) and δ = ``smoothing`` (m).
+
+        Returns ``(bulk, skin, gravity, chassaignac)``, built from the cached reference
+        geometry of ``(R, H)`` (:meth:`_geometry`).
+        """
+        geometry = self._geometry(params.R, params.H)
+        reference = geometry["reference"]
+        gravity = geometry["gravity"].get(params.density)
+        if gravity is None:
+            gravity = geometry["gravity"][params.density] = Gravity(reference, self.mesh.tets, params.density,
+                                                                    np.zeros(3))
+        sliding = geometry["chassaignac"].get(params.chassaignac)
+        if sliding is None:
+            sliding = geometry["chassaignac"][params.chassaignac] = Chassaignac(
+                reference, self.mesh.back_triangles, params.chassaignac, smoothing)
+        return (geometry["bulk"].with_moduli(params.lambda_breast, params.mu_breast),
+                geometry["skin"].with_moduli(params.lambda_skin, params.mu_skin, params.skin_thickness),
+                gravity.with_acceleration(acceleration), sliding.with_smoothing(smoothing))
 
     def mesh_at(self, params) -> CapMesh:
         """The gravity-free mesh at ``params``' R and H, with its fold at ``params.fold_angle``."""
@@ -73,10 +128,9 @@ class ForwardModel:
 
         Without gravity (g = 0) the load is zero; the force scale ``μ R²`` replaces it.
         """
-        # only the gravity term: the same load vector as the problem's, without building the others
-        accel = posture.gravity(params.gravity_magnitude)
-        load = float(np.linalg.norm(Gravity(self.reference(params.R, params.H), self.mesh.tets, params.density,
-                                            accel).load))
+        # only the gravity term: the same load vector as the problem's
+        gravity = self.energy_terms(params, posture.gravity(params.gravity_magnitude), params.smoothing)[2]
+        load = float(np.linalg.norm(gravity.load))
         return self.options.rtol * (load if load > 0 else params.mu_breast * params.R**2)
 
     def tangent(self, params, posture, position):

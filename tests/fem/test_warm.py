@@ -1,0 +1,30 @@
+"""``python -m breastcore.fem.warm`` (run by ``make`` after install) leaves a numba cache
+entry for every compiled kernel, so that no workflow job compiles one."""
+
+import os
+import subprocess
+import sys
+
+from breastcore.fem import compiled
+
+
+def kernel_cache_prefixes():
+    """``<module>.<function>-`` of every numba dispatcher in :mod:`breastcore.fem.compiled` (numba's file names)."""
+    prefixes = set()
+    for obj in vars(compiled).values():
+        func = getattr(obj, "py_func", None)
+        if func is not None and hasattr(obj, "stats"):          # a numba dispatcher
+            prefixes.add(f"{func.__module__.rsplit('.', 1)[-1]}.{func.__qualname__}-")
+    return prefixes
+
+
+def test_warm_caches_every_compiled_kernel(tmp_path):
+    env = dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path))
+    out = subprocess.run([sys.executable, "-m", "breastcore.fem.warm"], env=env, capture_output=True, text=True,
+                         timeout=600, check=True)
+    assert "numba kernels compiled and cached in" in out.stdout
+    written = [p.name for p in tmp_path.rglob("*.nbi")]
+    prefixes = kernel_cache_prefixes()
+    assert len(prefixes) >= 10                                   # the dispatchers were found at all
+    missing = sorted(p for p in prefixes if not any(name.startswith(p) for name in written))
+    assert not missing, f"not cached by the warm-up: {missing}"
