@@ -11,12 +11,16 @@ $(BIN)/.installed: pyproject.toml
 	$(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install --quiet --upgrade pip
 	$(BIN)/python -m pip install --quiet -e ".[test]"
-	$(BIN)/python -m breastcore.fem.warm   # numba's cache, so that no job compiles
+	touch $@
+
+# numba's cache of the compiled element loops, so that no job compiles them (again after an edit)
+$(BIN)/.warm: $(BIN)/.installed breastcore/fem/compiled.py breastcore/fem/material.py
+	$(BIN)/python -m breastcore.fem.warm
 	touch $@
 
 # snakemake --cores 2, after clearing what a killed run left (its lock, its unfinished jobs):
 # see breastcore/pipeline/run.py. More Snakemake arguments: make run ARGS="--configfile my.yaml".
-run: $(BIN)/.installed          ## run the default scenes of config.yaml
+run: $(BIN)/.warm               ## run the default scenes of config.yaml
 	$(BIN)/python -m breastcore.pipeline.run --cores $(CORES) $(ARGS)
 
 # Debian's Chromium: tests/pipeline/test_workflow.py renders the HTML report in it, as a person
@@ -29,7 +33,7 @@ $(CHROMIUM):
 
 # --dist loadfile: one worker runs each test file, so that a module-scoped fixture (the tiny
 # workflow of tests/pipeline/test_workflow.py) is built once, not once per worker.
-test: $(BIN)/.installed $(CHROMIUM)  ## the unit suite (< 10 min on 2 cores)
+test: $(BIN)/.warm $(CHROMIUM)  ## the unit suite (< 10 min on 2 cores)
 	$(BIN)/pytest -n $(CORES) --dist loadfile -q
 
 # A real single-node SLURM on this machine runs a scene through Snakemake's SLURM executor

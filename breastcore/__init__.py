@@ -104,7 +104,7 @@ def _imported_modules(root, entries):
     return sorted(seen | {root / "__init__.py"})
 
 
-@functools.lru_cache(maxsize=None)
+@functools.lru_cache(maxsize=1024)
 def _import_statements(source: str):
     """The import statements of a module's source, parsed once per text: the workflow hashes nine stages at start-up."""
     import ast

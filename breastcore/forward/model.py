@@ -27,9 +27,12 @@ from breastcore.model.mesh import CapMesh, refold
 from breastcore.model.parameters import Parameters
 from breastcore.model.postures import Posture
 
-#: Bytes of ``(R, H)`` reference geometries a :class:`ForwardModel` keeps, the newest always: 0.4 MB each on
-#: medium, 60 MB on fine50k. An implicit Jacobian visits five (Λ, and R ± h, H ± h for every posture).
-GEOMETRY_CACHE_BYTES = 256 * 2**20
+#: ``(R, H)`` reference geometries a :class:`ForwardModel` keeps, newest first: an implicit Jacobian visits
+#: five (Λ, and R ± h, H ± h, for every posture); older trial points are rarely revisited.
+GEOMETRY_CACHE_ENTRIES = 8
+#: ... and at most this many bytes of them, the newest always: 0.65 MB each on medium, 3 MB on
+#: ultra-thin, about 75 MB on fine50k.
+GEOMETRY_CACHE_BYTES = 512 * 2**20
 
 
 class ForwardModel:
@@ -58,7 +61,7 @@ class ForwardModel:
 
         A continuation builds a problem per step and posture at the same ``(R, H)``, and
         the identification's trial points and Jacobian revisit a few: the most recent
-        are kept, up to :data:`GEOMETRY_CACHE_BYTES`. The terms are templates; a
+        are kept, up to :data:`GEOMETRY_CACHE_ENTRIES` and :data:`GEOMETRY_CACHE_BYTES`. The terms are templates; a
         problem takes copies with its moduli, load and δ (``with_moduli``…), so its
         arrays are those a fresh build would compute, bit for bit.
         """
@@ -73,10 +76,12 @@ class ForwardModel:
                         bulk=BulkNeoHookean(reference, mesh.tets, 0.0, 0.0),
                         skin=SkinMembrane(reference, mesh.skin_triangles, 0.0, 0.0, 1.0),
                         gravity={}, chassaignac={})
-        geometry["bytes"] = sum(a.nbytes for a in vars(geometry["bulk"]).values() if isinstance(a, np.ndarray)) \
-            + sum(a.nbytes for a in vars(geometry["skin"]).values() if isinstance(a, np.ndarray)) + reference.nbytes
+        geometry["bytes"] = reference.nbytes + sum(                  # the connectivity is the mesh's, not copied
+            a.nbytes for term in (geometry["bulk"], geometry["skin"]) for name, a in vars(term).items()
+            if isinstance(a, np.ndarray) and name != "connectivity")
         self._geometries[key] = geometry
-        while len(self._geometries) > 1 and sum(g["bytes"] for g in self._geometries.values()) > GEOMETRY_CACHE_BYTES:
+        while len(self._geometries) > 1 and (len(self._geometries) > GEOMETRY_CACHE_ENTRIES or sum(
+                g["bytes"] for g in self._geometries.values()) > GEOMETRY_CACHE_BYTES):
             self._geometries.popitem(last=False)
         return geometry
 

@@ -28,3 +28,21 @@ def test_warm_caches_every_compiled_kernel(tmp_path):
     assert len(prefixes) >= 10                                   # the dispatchers were found at all
     missing = sorted(p for p in prefixes if not any(name.startswith(p) for name in written))
     assert not missing, f"not cached by the warm-up: {missing}"
+    # a solve and its final inertia check, as a workflow job runs them, in a new process:
+    # every kernel it calls is loaded from that cache, none compiled
+    job = subprocess.run([sys.executable, "-c", SOLVE_AND_COUNT], env=env, capture_output=True, text=True,
+                         timeout=600, check=True)
+    hits, misses = map(int, job.stdout.split())
+    assert hits >= 4 and misses == 0, job.stdout             # energy, gradient, Hessian, scatter
+
+
+SOLVE_AND_COUNT = """
+from breastcore.fem import compiled
+from breastcore.forward.model import ForwardModel
+from breastcore.model.mesh import mesh_level
+from breastcore.model.parameters import Parameters
+from breastcore.model.postures import paper_postures
+ForwardModel(mesh_level("coarse")).solve(Parameters(), paper_postures()[2])
+stats = [obj.stats for obj in vars(compiled).values() if hasattr(obj, "py_func") and hasattr(obj, "stats")]
+print(sum(sum(s.cache_hits.values()) for s in stats), sum(sum(s.cache_misses.values()) for s in stats))
+"""

@@ -43,6 +43,7 @@ VISITS = [
 @pytest.mark.parametrize("cache_bytes", [forward_model.GEOMETRY_CACHE_BYTES, 0])
 def test_problems_from_the_cache_equal_fresh_builds_bit_for_bit(coarse, monkeypatch, rng, cache_bytes):
     monkeypatch.setattr(forward_model, "GEOMETRY_CACHE_BYTES", cache_bytes)   # 0: only the newest is kept
+    monkeypatch.setattr(forward_model, "GEOMETRY_CACHE_ENTRIES", 8)
     model = ForwardModel(coarse)
     posture = paper_postures()[1]
     for changes, load, delta in VISITS + VISITS[::-1]:
@@ -73,9 +74,21 @@ def test_cached_reference_is_read_only_and_templates_keep_their_values(coarse):
     assert np.all(geometry["gravity"][params.density].load == 0.0)
 
 
-def test_tolerance_uses_the_problem_load(coarse):
+def test_tolerance_is_rtol_times_a_freshly_built_gravity_load(coarse):
     model = ForwardModel(coarse)
-    params = Parameters().replace(density=950.0)
-    for posture in paper_postures():
-        load = np.linalg.norm(model.problem(params, posture).gravity.load)
-        assert model.tolerance(params, posture) == model.options.rtol * load
+    for params in (Parameters().replace(density=950.0), Parameters().replace(R=0.06, H=0.04)):
+        for posture in paper_postures():
+            fresh = Gravity(model.map.positions(params.R, params.H), coarse.tets, params.density,
+                            posture.gravity(params.gravity_magnitude))
+            assert model.tolerance(params, posture) == model.options.rtol * np.linalg.norm(fresh.load)
+
+
+def test_the_cache_keeps_the_newest_entries_within_its_count(coarse, monkeypatch):
+    monkeypatch.setattr(forward_model, "GEOMETRY_CACHE_ENTRIES", 3)
+    model = ForwardModel(coarse)
+    radii = [0.050 + 0.001 * i for i in range(6)]
+    for R in radii:
+        model.reference(R, 0.04)
+    assert list(model._geometries) == [(R, 0.04) for R in radii[-3:]]
+    model.reference(radii[3], 0.04)                       # a hit moves it to the newest place
+    assert list(model._geometries)[-1] == (radii[3], 0.04) and len(model._geometries) == 3

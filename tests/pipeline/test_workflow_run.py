@@ -37,13 +37,14 @@ PATIENT = {"report": {"enabled": True}, "scenes": {"alice": {
 def make_run_command(*args):
     """The command `make run ARGS=...` runs, as make prints it, with this test's Python.
 
-    The Makefile's venv may not be the one running the tests, so its `.installed` target is
-    taken as up to date and its python replaced by this one.
+    The Makefile's venv may not be the one running the tests, so its `.installed` and `.warm`
+    targets are taken as up to date and its python replaced by this one.
     """
     if shutil.which("make") is None:
         pytest.skip("no make")
     binary = Path(sys.executable).parent
-    out = subprocess.run(["make", "-s", "-n", "-C", str(ROOT), "-o", f"{binary}/.installed", f"BIN={binary}",
+    out = subprocess.run(["make", "-s", "-n", "-C", str(ROOT), "-o", f"{binary}/.installed", "-o", f"{binary}/.warm",
+                          f"BIN={binary}",
                           "run", f"ARGS={shlex.join(args)}"], capture_output=True, text=True, check=True)
     command = shlex.split(out.stdout.strip())
     assert command[:4] == [f"{binary}/python", "-m", "breastcore.pipeline.run", "--cores"], out.stdout
