@@ -2,7 +2,8 @@
 
 Usage::
 
-    python benchmarks/bench_cold_factorisations.py [--levels coarse,medium,thin,ultra-thin,reference,fine10k] [--repeats 3]
+    python benchmarks/bench_cold_factorisations.py [--levels coarse,medium,thin,ultra-thin,reference,fine10k]
+                                                   [--repeats 3]
     python benchmarks/bench_cold_factorisations.py --quick     # coarse, medium, ultra-thin; 1 repeat (``make bench``)
 
 Per level and paper posture: the median time of a cold solve at the paper's Λ̄ (a new

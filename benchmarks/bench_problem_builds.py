@@ -78,7 +78,8 @@ def identify_once(level, target, start, cached):
 
 def parse_args(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    parser.add_argument("--levels", default=None, help="comma-separated (default coarse,medium,ultra-thin; --quick: coarse)")
+    parser.add_argument("--levels", default=None,
+                        help="comma-separated (default coarse,medium,ultra-thin; --quick: coarse)")
     parser.add_argument("--repeats", type=int, default=None, help="runs per start and variant (default 3; --quick: 1)")
     parser.add_argument("--quick", action="store_true", help="coarse, one repeat (make bench)")
     args = parser.parse_args(argv)

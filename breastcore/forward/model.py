@@ -61,9 +61,9 @@ class ForwardModel:
 
         A continuation builds a problem per step and posture at the same ``(R, H)``, and
         the identification's trial points and Jacobian revisit a few: the most recent
-        are kept, up to :data:`GEOMETRY_CACHE_ENTRIES` and :data:`GEOMETRY_CACHE_BYTES`. The terms are templates; a
-        problem takes copies with its moduli, load and δ (``with_moduli``…), so its
-        arrays are those a fresh build would compute, bit for bit.
+        are kept, up to :data:`GEOMETRY_CACHE_ENTRIES` and :data:`GEOMETRY_CACHE_BYTES`.
+        The terms are templates; a problem takes copies with its moduli, load and δ
+        (``with_moduli``…), so its arrays are those a fresh build would compute, bit for bit.
         """
         key = (float(R), float(H))
         if key in self._geometries:
