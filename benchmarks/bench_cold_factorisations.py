@@ -18,9 +18,7 @@ the levels given, per posture: the issue asks for p ≤ 1.3 from coarse to fine1
 from __future__ import annotations
 
 import argparse
-import statistics
 import sys
-import time
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
@@ -40,12 +38,7 @@ def factorisation_seconds(model, params, posture, position):
     problem = model.problem(params, posture)
     K = problem.hessian(problem.free(position))
     Factorization(K, problem.pattern)                          # the symbolic analysis, once per pattern
-    times = []
-    for _ in range(FACTORISATION_REPEATS):
-        tic = time.perf_counter()
-        Factorization(K, problem.pattern)
-        times.append(time.perf_counter() - tic)
-    return statistics.median(times)
+    return timed(lambda: Factorization(K, problem.pattern), FACTORISATION_REPEATS)[0]
 
 
 def parse_args(argv=None):

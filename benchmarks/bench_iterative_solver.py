@@ -23,7 +23,6 @@ Needs pyamg (``pip install -e ".[bench]"``; ``make`` installs it).
 from __future__ import annotations
 
 import argparse
-import statistics
 import sys
 import time
 from pathlib import Path
@@ -32,7 +31,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from benchmarks._common import header, print_table  # noqa: E402
+from benchmarks._common import header, print_table, timed  # noqa: E402
 from breastcore.forward.model import ForwardModel  # noqa: E402
 from breastcore.linalg.factorization import Factorization  # noqa: E402
 from breastcore.model.mesh import mesh_level  # noqa: E402
@@ -66,15 +65,6 @@ def rigid_body_modes(problem):
     return np.column_stack(modes)
 
 
-def median_time(fn, repeats):
-    times, result = [], None
-    for _ in range(repeats):
-        tic = time.perf_counter()
-        result = fn()
-        times.append(time.perf_counter() - tic)
-    return statistics.median(times), result
-
-
 def parse_args(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--levels", default=None, help="comma-separated (default ultra-thin,fine10k,fine50k; "
@@ -98,10 +88,10 @@ def main(argv=None):
     for level in args.levels:
         problem, K, rhs = newton_system(level)
         Factorization(K, problem.pattern)                                 # symbolic analysis, once
-        factor_s, factor = median_time(lambda: Factorization(K, problem.pattern), args.repeats)
-        solve_s, direct = median_time(lambda: factor.solve(rhs), args.repeats)
+        factor_s, _, factor = timed(lambda: Factorization(K, problem.pattern), args.repeats)
+        solve_s, _, direct = timed(lambda: factor.solve(rhs), args.repeats)
         modes = rigid_body_modes(problem)
-        setup_s, hierarchy = median_time(lambda: pyamg.smoothed_aggregation_solver(
+        setup_s, _, hierarchy = timed(lambda: pyamg.smoothed_aggregation_solver(
             K, B=modes, strength=("symmetric", {"theta": 0.0}), max_coarse=MAX_COARSE), args.repeats)
         residuals = []
 
@@ -109,7 +99,7 @@ def main(argv=None):
             residuals.clear()
             return hierarchy.solve(rhs, tol=RTOL, accel="cg", maxiter=1000, residuals=residuals)
 
-        amg_s, iterative = median_time(krylov, args.repeats)
+        amg_s, _, iterative = timed(krylov, args.repeats)
         relative = np.linalg.norm(K @ iterative - rhs) / np.linalg.norm(rhs)
         difference = np.linalg.norm(iterative - direct) / np.linalg.norm(direct)
         direct_s = factor_s + solve_s

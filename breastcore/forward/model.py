@@ -92,18 +92,22 @@ class ForwardModel:
         geometry of ``(R, H)`` (:meth:`_geometry`).
         """
         geometry = self._geometry(params.R, params.H)
-        reference = geometry["reference"]
-        gravity = geometry["gravity"].get(params.density)
-        if gravity is None:
-            gravity = geometry["gravity"][params.density] = Gravity(reference, self.mesh.tets, params.density,
-                                                                    np.zeros(3))
         sliding = geometry["chassaignac"].get(params.chassaignac)
         if sliding is None:
             sliding = geometry["chassaignac"][params.chassaignac] = Chassaignac(
-                reference, self.mesh.back_triangles, params.chassaignac, smoothing)
+                geometry["reference"], self.mesh.back_triangles, params.chassaignac, smoothing)
         return (geometry["bulk"].with_moduli(params.lambda_breast, params.mu_breast),
                 geometry["skin"].with_moduli(params.lambda_skin, params.mu_skin, params.skin_thickness),
-                gravity.with_acceleration(acceleration), sliding.with_smoothing(smoothing))
+                self._gravity(params, acceleration), sliding.with_smoothing(smoothing))
+
+    def _gravity(self, params, acceleration) -> Gravity:
+        """The gravity term at ``params`` under ``acceleration``, from the cached nodal masses of ``(R, H, ρ)``."""
+        geometry = self._geometry(params.R, params.H)
+        gravity = geometry["gravity"].get(params.density)
+        if gravity is None:
+            gravity = geometry["gravity"][params.density] = Gravity(geometry["reference"], self.mesh.tets,
+                                                                    params.density, np.zeros(3))
+        return gravity.with_acceleration(acceleration)
 
     def mesh_at(self, params) -> CapMesh:
         """The gravity-free mesh at ``params``' R and H, with its fold at ``params.fold_angle``."""
@@ -134,8 +138,7 @@ class ForwardModel:
         Without gravity (g = 0) the load is zero; the force scale ``μ R²`` replaces it.
         """
         # only the gravity term: the same load vector as the problem's
-        gravity = self.energy_terms(params, posture.gravity(params.gravity_magnitude), params.smoothing)[2]
-        load = float(np.linalg.norm(gravity.load))
+        load = float(np.linalg.norm(self._gravity(params, posture.gravity(params.gravity_magnitude)).load))
         return self.options.rtol * (load if load > 0 else params.mu_breast * params.R**2)
 
     def tangent(self, params, posture, position):

@@ -45,6 +45,21 @@ def write_netcdf(ds: xr.Dataset, path) -> Path:
     return path
 
 
+def write_text(text: str, path) -> Path:
+    """Write ``text`` (UTF-8) to ``path`` atomically, as :func:`write_netcdf` writes a dataset."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = _new_temporary(path)
+    try:
+        with open(tmp, "w", encoding="utf-8") as f:
+            f.write(text)
+        os.replace(tmp, path)
+    finally:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+    return path
+
+
 def _new_temporary(path: Path) -> str:
     """Create an empty, unused ``<name>.<random>.tmp`` beside ``path``, with mode 0666 less the umask.
 

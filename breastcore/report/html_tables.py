@@ -33,7 +33,8 @@ def table_page(frame: pd.DataFrame, title: str, index: bool = False) -> str:
 
 
 def write_table(frame: pd.DataFrame, csv_path, html_path, title: str, index: bool = False) -> None:
-    """Write ``frame`` as CSV (the data) and as an HTML page (what the report shows)."""
-    frame.to_csv(csv_path, index=index)
-    with open(html_path, "w", encoding="utf-8") as f:
-        f.write(table_page(frame, title, index))
+    """Write ``frame`` as CSV (the data) and as an HTML page (what the report shows), each atomically."""
+    from breastcore.io.datasets import write_text
+
+    write_text(frame.to_csv(index=index), csv_path)
+    write_text(table_page(frame, title, index), html_path)

@@ -5,6 +5,7 @@ import numpy as np
 import pytest
 
 from breastcore.cli.main import main
+from breastcore.fem.loads import Gravity
 from breastcore.forward.model import ForwardModel
 from breastcore.forward.options import SolverOptions
 from breastcore.forward.records import SolveError
@@ -141,9 +142,13 @@ def test_energy_at_fixed_deformation_is_differentiable_in_R_and_H(coarse):
 
 
 def test_the_tolerance_is_rtol_times_the_problems_gravity_load_to_the_bit(coarse):
-    """ForwardModel.tolerance builds only the gravity term; it must be the full problem's load norm."""
+    """ForwardModel.tolerance takes only the gravity term; it must be the full problem's load norm,
+    and that of a gravity term built from its constructor (not through the geometry cache)."""
     model = ForwardModel(coarse)
     for params in (Parameters(), Parameters(R=0.07, H=0.03, density=1100.0)):
         for posture in (Posture("standing", 0.0), Posture("lean", 30.0), Posture("fours", 90.0)):
+            acceleration = posture.gravity(params.gravity_magnitude)
+            fresh = Gravity(model.map.positions(params.R, params.H), coarse.tets, params.density, acceleration)
             load = np.linalg.norm(model.problem(params, posture).gravity.load)
+            assert load == np.linalg.norm(fresh.load)
             assert model.tolerance(params, posture) == model.options.rtol * load

@@ -74,15 +74,6 @@ def test_cached_reference_is_read_only_and_templates_keep_their_values(coarse):
     assert np.all(geometry["gravity"][params.density].load == 0.0)
 
 
-def test_tolerance_is_rtol_times_a_freshly_built_gravity_load(coarse):
-    model = ForwardModel(coarse)
-    for params in (Parameters().replace(density=950.0), Parameters().replace(R=0.06, H=0.04)):
-        for posture in paper_postures():
-            fresh = Gravity(model.map.positions(params.R, params.H), coarse.tets, params.density,
-                            posture.gravity(params.gravity_magnitude))
-            assert model.tolerance(params, posture) == model.options.rtol * np.linalg.norm(fresh.load)
-
-
 def test_the_cache_keeps_the_newest_entries_within_its_count(coarse, monkeypatch):
     monkeypatch.setattr(forward_model, "GEOMETRY_CACHE_ENTRIES", 3)
     model = ForwardModel(coarse)

@@ -1,4 +1,5 @@
-"""write_netcdf: atomic (a temporary name, then a rename) and refusing unlabelled variables."""
+"""write_netcdf and write_text: atomic (a temporary name, then a rename); write_netcdf refuses
+unlabelled variables."""
 
 import os
 import stat
@@ -7,7 +8,7 @@ import numpy as np
 import pytest
 import xarray as xr
 
-from breastcore.io.datasets import write_netcdf
+from breastcore.io.datasets import write_netcdf, write_text
 
 
 def _dataset(value):
@@ -69,3 +70,19 @@ def test_the_file_mode_follows_the_umask(tmp_path, umask, mode):
         os.umask(old)
     assert stat.S_IMODE((tmp_path / "a.nc").stat().st_mode) == mode
     assert stat.S_IMODE((tmp_path / "b.csv").stat().st_mode) == mode
+
+
+def test_write_text_replaces_whole_and_leaves_no_temporary(tmp_path, monkeypatch):
+    target = tmp_path / "report" / "front.html"
+    write_text("<p>first</p>\n", target)
+    assert target.read_text(encoding="utf-8") == "<p>first</p>\n"
+    real_replace = os.replace
+
+    def check_then_replace(src, dst):               # just before the rename, readers see the old page
+        assert target.read_text(encoding="utf-8") == "<p>first</p>\n" and str(src) != str(target)
+        real_replace(src, dst)
+
+    monkeypatch.setattr(os, "replace", check_then_replace)
+    write_text("<p>second, μ</p>\n", target)
+    assert target.read_text(encoding="utf-8") == "<p>second, μ</p>\n"
+    assert sorted(p.name for p in target.parent.iterdir()) == ["front.html"]
