@@ -67,6 +67,19 @@ class FitVerdict:
     message: str
 
 
+def chi2_quantile(q, dof) -> float:
+    r"""The ``q`` quantile of the χ² distribution with ``dof`` degrees of freedom.
+
+    Notes
+    -----
+    :math:`F^{-1}(q) = 2\,P^{-1}(\nu/2, q)`, with :math:`P^{-1}` the inverse of the
+    regularised lower incomplete gamma function: the formula of ``scipy.stats.chi2.ppf``,
+    bit for bit, without importing ``scipy.stats`` (0.35-0.45 s once per identification job).
+    """
+    from scipy.special import gammaincinv
+    return float(2.0 * gammaincinv(0.5 * dof, q))
+
+
 def fit_verdict(converged, relative_error, weights, noise, labels, parameters=len(IDENTIFIED)) -> FitVerdict:
     """The verdict of an estimate whose measurements miss the data by ``relative_error`` (M/M̄ − 1).
 
@@ -92,8 +105,7 @@ def fit_verdict(converged, relative_error, weights, noise, labels, parameters=le
     t = np.where(used, r / noise, 0.0)
     statistic = float(np.sum(t[used] ** 2))
     dof = int(used.sum()) - parameters
-    from scipy.stats import chi2     # 1 s to import: only where a verdict is made
-    threshold = float(chi2.ppf(FIT_QUANTILE, dof)) if dof > 0 else float("nan")
+    threshold = chi2_quantile(FIT_QUANTILE, dof) if dof > 0 else float("nan")
     size = np.where(np.isnan(t), np.inf, np.abs(t))                  # a NaN residual is the worst
     tested = np.flatnonzero(used)                                       # names and residuals from the same indices
     order = tested[np.argsort(-size[tested], kind="stable")][:WORST_SHOWN]

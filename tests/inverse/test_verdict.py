@@ -20,7 +20,7 @@ from breastcore.inverse.uncertainty import (
     intervals,
     log_covariance,
 )
-from breastcore.inverse.verdict import FIT_QUANTILE, fit_verdict
+from breastcore.inverse.verdict import FIT_QUANTILE, chi2_quantile, fit_verdict
 from breastcore.io.datasets import open_dataset
 
 LABELS = [f"{p}:{q}" for p in ("standing", "bent45", "fours")
@@ -50,6 +50,20 @@ def test_the_threshold_is_the_chi2_quantile_of_the_weighted_measurements():
     r = np.where(weights > 0, just_below, 5.0)                         # unweighted residuals are not tested
     assert fit_verdict(True, r, weights, 0.10, LABELS).verdict == "consistent"
     assert fit_verdict(True, r * 1.01, weights, 0.10, LABELS).verdict == "misfit"
+
+
+@pytest.mark.parametrize("q", [0.5, 0.95, FIT_QUANTILE, 0.999])
+def test_chi2_quantile_is_scipy_stats_bit_for_bit(q):
+    dofs = np.arange(1, 100)
+    assert np.array_equal([chi2_quantile(q, d) for d in dofs], chi2.ppf(q, dofs))
+
+
+def test_a_verdict_does_not_import_scipy_stats():
+    code = ("import sys, numpy as np; from breastcore.inverse.verdict import fit_verdict; "
+            "fit_verdict(True, np.zeros(15), np.ones(15), 0.1, [str(i) for i in range(15)]); "
+            "print('scipy.stats' in sys.modules)")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == "False"
 
 
 def test_not_converged_and_untestable_fits_say_so():
