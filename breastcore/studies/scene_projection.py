@@ -78,21 +78,36 @@ def _seconds(x) -> str:
     return "—" if math.isnan(x) else f"{x:,.0f}" if x >= 100 else f"{x:.2f}"
 
 
+def _positive_int(text):
+    value = int(text)
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"must be ≥ 1, got {value}")
+    return value
+
+
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--config", nargs="+", default=["config.yaml", "config/paper.yaml"],
                         help="the full run's config files, later ones over earlier (default config.yaml "
                              "config/paper.yaml)")
     parser.add_argument("--workdir", type=Path, default=Path("."), help="where the preview ran (default .)")
-    parser.add_argument("--cores", type=int, default=2, help="cores of the projected run (default 2)")
+    parser.add_argument("--cores", type=_positive_int, default=2, help="cores of the projected run, ≥ 1 (default 2)")
     args = parser.parse_args(argv)
+    configs = [args.workdir / c for c in args.config]
+    missing = [str(c) for c in configs if not c.is_file()]
+    if missing:
+        parser.error(f"no such config file: {', '.join(missing)}")
     header("scene_projection", [sys.argv[0]] + (argv if argv is not None else sys.argv[1:]))
-    rows = project(scene_groups(plan_from_files(*[args.workdir / c for c in args.config]), args.workdir))
+    plan = plan_from_files(*configs)
+    rows = project(scene_groups(plan, args.workdir))
+    if not any(r[4] for r in rows):
+        parser.error(f"no job of these scenes has a benchmark file under {args.workdir / plan.results / 'benchmarks'}: "
+                     "run this in the preview's folder, with the config files of the full run")
     print_table(["scene", "stage", "level", "jobs", "measured", "measured s", "mean s", "projected s"],
                 [r[:5] + [_seconds(x) for x in r[5:]] for r in rows])
     t = totals(rows, args.cores)
     print(f"job time: {t['measured']:.0f} s measured, {t['projected']:.0f} s projected; "
-          f"wall time on {args.cores} cores ≥ {t['wall'] / 60:.0f} min")
+          f"wall time on {args.cores} cores ≥ {t['wall'] / 60:.0f} min (job time / cores)")
     if t["unmeasured"]:
         print("not projected (no job measured): " + ", ".join("/".join(g) for g in t["unmeasured"]))
     return t

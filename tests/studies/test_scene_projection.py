@@ -68,3 +68,19 @@ def test_the_command_prints_the_table_and_the_projection(preview_run, capsys):
     out = capsys.readouterr().out
     assert "| paper_table1 " in out and f"{t['projected']:.0f} s projected" in out
     assert "not projected (no job measured): paper_sensitivity/sensitivity/very-thin" in out
+
+
+@pytest.mark.parametrize("args, message", [
+    (["--cores", "0"], "must be ≥ 1"),
+    (["--config", "no-such.yaml"], "no such config file"),
+])
+def test_bad_arguments_are_refused_with_a_reason(tmp_path, capsys, args, message):
+    with pytest.raises(SystemExit) as stop:
+        main(["--workdir", str(tmp_path), *args])
+    assert stop.value.code == 2 and message in capsys.readouterr().err
+
+
+def test_a_folder_without_the_previews_benchmarks_is_refused(tmp_path, capsys):
+    with pytest.raises(SystemExit) as stop:
+        main(["--workdir", str(tmp_path), "--config", str(FULL[0]), str(FULL[1])])
+    assert stop.value.code == 2 and "no job of these scenes has a benchmark file" in capsys.readouterr().err
