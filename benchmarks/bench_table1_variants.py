@@ -1,0 +1,121 @@
+"""Table-1 jobs of the paper scene under forward-solver variants, side by side: time and estimates.
+
+Usage::
+
+    python benchmarks/bench_table1_variants.py [--level ultra-thin] [--readings cross,same]
+                                               [--variants default,no-delta-phase+chord0.5]
+                                               [--starts 1] [--offsets 0.1,0.3,0.6,0.9]
+    python benchmarks/bench_table1_variants.py --quick    # coarse, 1 start per offset (``make bench``)
+
+Takes the jobs of ``config/paper.yaml``'s two Table-1 scenes on one mesh level: ``cross``
+(``paper_table1``, truth solved on the reference level) and ``same`` (``paper_table1_same``,
+truth solved on the level itself), the first ``--starts`` random starts per offset. Each
+identification runs in this process once per variant, the variants of a job one after the
+other, so that a drift of the machine falls on all of them. A variant sets
+:class:`~breastcore.forward.options.SolverOptions` keys in the job's solver spec, for the
+identification's forward solves only (the truth is the workflow's):
+
+- ``default``: today's path;
+- ``chord0.5``: Newton's chord steps (``reuse_factor = 0.5``);
+- ``no-delta-phase``: the gravity ramp at the target δ (``smoothing_start = 1e-6`` m), no δ
+  continuation after it;
+- ``no-delta-phase+chord0.5``: both.
+
+Per job it prints the time, LM iterations, forward solves, the mean |estimate/truth − 1|
+over the six parameters and the largest relative difference of the estimate from the
+``default`` variant's; then per variant the total time and its ratio to ``default``'s.
+Inputs are found or built as in ``bench_warm_radius.py`` (``benchmarks/results/warm_radius/inputs/``);
+the identifications are written to ``benchmarks/results/table1_variants/``. ``--quick``
+takes the coarse level and one start per offset, unless ``--level`` or ``--starts`` are given.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+
+from benchmarks._common import RESULTS, header, print_table  # noqa: E402
+from benchmarks.bench_warm_radius import ensure_input, table1_runs  # noqa: E402
+
+from breastcore.io.datasets import open_dataset  # noqa: E402
+from breastcore.stages.identify import run_identify  # noqa: E402
+
+VARIANTS = {
+    "default": {},
+    "chord0.5": {"reuse_factor": 0.5},
+    "no-delta-phase": {"smoothing_start": 1e-6},
+    "no-delta-phase+chord0.5": {"smoothing_start": 1e-6, "reuse_factor": 0.5},
+}
+SCENES = {"cross": "paper_table1", "same": "paper_table1_same"}
+
+
+def parse_args(argv=None):
+    """The command line (``sys.argv[1:]`` if ``argv`` is None), with the defaults ``--quick`` implies."""
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("--level", default=None, help="mesh level (default ultra-thin; --quick: coarse)")
+    parser.add_argument("--readings", default="cross,same", help="comma-separated of cross, same (default both)")
+    parser.add_argument("--variants", default="default,no-delta-phase+chord0.5",
+                        help=f"comma-separated of {', '.join(VARIANTS)}; the first is the reference")
+    parser.add_argument("--starts", type=int, default=None, help="starts per offset (default 1)")
+    parser.add_argument("--offsets", default=None, help="comma-separated (default: all of the scene)")
+    parser.add_argument("--quick", action="store_true", help="coarse level, 1 start per offset (make bench)")
+    args = parser.parse_args(argv)
+    args.level = args.level or ("coarse" if args.quick else "ultra-thin")
+    args.starts = args.starts if args.starts is not None else 1
+    args.readings = args.readings.split(",")
+    args.variants = args.variants.split(",")
+    unknown = [r for r in args.readings if r not in SCENES] + [v for v in args.variants if v not in VARIANTS]
+    if unknown:
+        parser.error(f"unknown reading or variant: {', '.join(unknown)}")
+    return args
+
+
+def main(argv=None):
+    args = parse_args(argv)
+    header("bench_table1_variants", [sys.argv[0]] + (argv if argv is not None else sys.argv[1:]))
+    offsets = [float(o) for o in args.offsets.split(",")] if args.offsets else None
+    plan, _ = table1_runs(args.level, args.starts, offsets)
+    out_dir = RESULTS / "table1_variants"
+    out_dir.mkdir(parents=True, exist_ok=True)
+    built = RESULTS / "warm_radius" / "inputs"
+    jobs = [(reading, run) for reading in args.readings for run in plan.scenes[SCENES[reading]]["runs"]
+            if run["mesh"] == args.level and run["start"] < args.starts and (offsets is None or run["offset"] in offsets)]
+    inputs = {}                                           # plan path -> file read; resolved before any clock starts
+    for _, run in jobs:
+        spec = plan.jobs["identify"][run["identification"]]
+        for stage, key in (("measure", "measurements"), ("mesh", "mesh")):
+            if spec[key] not in inputs:
+                inputs[spec[key]] = ensure_input(plan, stage, spec[key], built)
+
+    rows, totals = [], {v: 0.0 for v in args.variants}
+    for reading, run in jobs:
+        spec = plan.jobs["identify"][run["identification"]]
+        reference = None
+        for variant in args.variants:
+            job = {**spec, "solver": {**spec["solver"], **VARIANTS[variant]}}
+            out = out_dir / f"{reading}-{args.level}-{run['offset']}-{run['start']}-{variant}.nc"
+            tic = time.perf_counter()
+            run_identify(job, inputs[spec["measurements"]], inputs[spec["mesh"]], out)
+            seconds = time.perf_counter() - tic
+            totals[variant] += seconds
+            with open_dataset(out) as ds:
+                estimate = ds["estimate"].values
+                reference = estimate if reference is None else reference
+                rows.append([reading, run["offset"], run["start"], variant, f"{seconds:.1f}", ds.attrs["iterations"],
+                             ds.attrs["forward_solves"], f"{100 * float(np.abs(ds['relative_error'].values).mean()):.4g}",
+                             f"{float(np.max(np.abs(estimate / reference - 1))):.1e}"])
+    print_table(["reading", "offset", "start", "variant", "time (s)", "iterations", "solves",
+                 "mean |error| (%)", f"max rel. diff. from {args.variants[0]}"], rows,
+                f"Table-1 jobs on {args.level}")
+    for variant, total in totals.items():
+        print(f"{variant}: {total:.1f} s in all, {total / totals[args.variants[0]]:.2f}× {args.variants[0]}'s")
+
+
+if __name__ == "__main__":
+    main()
