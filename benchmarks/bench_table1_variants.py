@@ -41,7 +41,7 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from benchmarks._common import RESULTS, header, print_table  # noqa: E402
-from benchmarks.bench_warm_radius import ensure_input, table1_runs  # noqa: E402
+from benchmarks.bench_warm_radius import job_inputs, table1_runs  # noqa: E402
 
 from breastcore.io.datasets import open_dataset  # noqa: E402
 from breastcore.stages.identify import run_identify  # noqa: E402
@@ -80,18 +80,13 @@ def main(argv=None):
     args = parse_args(argv)
     header("bench_table1_variants", [sys.argv[0]] + (argv if argv is not None else sys.argv[1:]))
     offsets = [float(o) for o in args.offsets.split(",")] if args.offsets else None
-    plan, _ = table1_runs(args.level, args.starts, offsets)
+    jobs = []
+    for reading in args.readings:
+        plan, runs = table1_runs(args.level, args.starts, offsets, SCENES[reading])
+        jobs += [(reading, run) for run in runs]
     out_dir = RESULTS / "table1_variants"
     out_dir.mkdir(parents=True, exist_ok=True)
-    built = RESULTS / "warm_radius" / "inputs"
-    jobs = [(reading, run) for reading in args.readings for run in plan.scenes[SCENES[reading]]["runs"]
-            if run["mesh"] == args.level and run["start"] < args.starts and (offsets is None or run["offset"] in offsets)]
-    inputs = {}                                           # plan path -> file read; resolved before any clock starts
-    for _, run in jobs:
-        spec = plan.jobs["identify"][run["identification"]]
-        for stage, key in (("measure", "measurements"), ("mesh", "mesh")):
-            if spec[key] not in inputs:
-                inputs[spec[key]] = ensure_input(plan, stage, spec[key], built)
+    inputs = job_inputs(plan, [run for _, run in jobs], RESULTS / "warm_radius" / "inputs")   # before any clock starts
 
     rows, totals = [], {v: 0.0 for v in args.variants}
     for reading, run in jobs:

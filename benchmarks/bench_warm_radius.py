@@ -45,13 +45,15 @@ from breastcore.stages.mesh import run_mesh  # noqa: E402
 from breastcore.stages.solve import run_solve  # noqa: E402
 
 
-def table1_runs(level, starts, offsets):
+def table1_runs(level, starts, offsets, scene="paper_table1"):
+    """The plan of ``config.yaml`` + ``config/paper.yaml`` and the runs of ``scene`` on ``level``:
+    the first ``starts`` starts of each offset in ``offsets`` (None: all)."""
     config = yaml.safe_load((ROOT / "config.yaml").read_text())
     paper = yaml.safe_load((ROOT / "config" / "paper.yaml").read_text())
     config["run_scenes"] = paper["run_scenes"]
     config["scenes"].update(paper["scenes"])
     plan = Plan(validate_config(config, str(ROOT / "workflow" / "schemas" / "config.schema.yaml")))
-    runs = [r for r in plan.scenes["paper_table1"]["runs"]
+    runs = [r for r in plan.scenes[scene]["runs"]
             if r["mesh"] == level and r["start"] < starts and (offsets is None or r["offset"] in offsets)]
     return plan, runs
 
@@ -102,6 +104,17 @@ def ensure_input(plan, stage, path, built):
     return out
 
 
+def job_inputs(plan, runs, built) -> dict:
+    """``{plan path: file to read}`` of the measurements and meshes of ``runs``, found or built (:func:`ensure_input`)."""
+    inputs = {}
+    for run in runs:
+        spec = plan.jobs["identify"][run["identification"]]
+        for stage, key in (("measure", "measurements"), ("mesh", "mesh")):
+            if spec[key] not in inputs:
+                inputs[spec[key]] = ensure_input(plan, stage, spec[key], built)
+    return inputs
+
+
 def parse_args(argv=None):
     """The command line (``sys.argv[1:]`` if ``argv`` is None), with the defaults ``--quick`` implies."""
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
@@ -126,12 +139,7 @@ def main(argv=None):
     out_dir = RESULTS / "warm_radius"
     out_dir.mkdir(parents=True, exist_ok=True)
     built = out_dir / "inputs"
-    inputs = {}                                           # plan path -> file read; resolved before any clock starts
-    for run in runs:
-        spec = plan.jobs["identify"][run["identification"]]
-        for stage, key in (("measure", "measurements"), ("mesh", "mesh")):
-            if spec[key] not in inputs:
-                inputs[spec[key]] = ensure_input(plan, stage, spec[key], built)
+    inputs = job_inputs(plan, runs, built)                # resolved before any clock starts
 
     rows = []
     for run in runs:

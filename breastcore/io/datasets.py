@@ -30,29 +30,27 @@ def write_netcdf(ds: xr.Dataset, path) -> Path:
     Readers never see a half-written file. Missing parent folders are created. The file's
     mode follows the umask, as for any file the workflow writes (0644 under umask 022).
     """
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
     missing = [name for name, var in ds.variables.items() if "units" not in var.attrs or "long_name" not in var.attrs]
     if missing:
         raise ValueError(f"variables without units/long_name: {missing}")
-    tmp = _new_temporary(path)
-    try:
-        ds.to_netcdf(tmp, engine="netcdf4")
-        os.replace(tmp, path)
-    finally:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-    return path
+    return _write_atomically(path, lambda tmp: ds.to_netcdf(tmp, engine="netcdf4"))
 
 
 def write_text(text: str, path) -> Path:
     """Write ``text`` (UTF-8) to ``path`` atomically, as :func:`write_netcdf` writes a dataset."""
+    return _write_atomically(path, lambda tmp: Path(tmp).write_text(text, encoding="utf-8"))
+
+
+def _write_atomically(path, write) -> Path:
+    """``write(tmp)`` to a new temporary file beside ``path`` (its folder created), then rename it to ``path``.
+
+    No temporary file is left behind, whether ``write`` succeeds or raises.
+    """
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     tmp = _new_temporary(path)
     try:
-        with open(tmp, "w", encoding="utf-8") as f:
-            f.write(text)
+        write(tmp)
         os.replace(tmp, path)
     finally:
         if os.path.exists(tmp):

@@ -1,9 +1,18 @@
-"""Logging of workflow jobs: one line per Newton and per identification iteration."""
+"""Logging of workflow jobs (one line per Newton and per identification iteration), and their benchmark files."""
 
 from __future__ import annotations
 
 import contextlib
 import logging
+from pathlib import Path
+
+
+def benchmark_seconds(path) -> float | None:
+    """Wall seconds of a job from its Snakemake ``benchmark:`` file (the first data row), or None if absent."""
+    path = Path(path)
+    if not path.exists():
+        return None
+    return float(path.read_text().splitlines()[1].split()[0])
 
 
 @contextlib.contextmanager

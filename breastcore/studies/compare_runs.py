@@ -23,15 +23,13 @@ from pathlib import Path
 import numpy as np
 
 from breastcore.io.datasets import open_dataset
+from breastcore.pipeline.logs import benchmark_seconds
 from breastcore.report.text_table import header, print_table
 
 
 def job_seconds(results: Path, key: str):
     """Wall seconds of one identify job from its Snakemake ``benchmark:`` file, or None."""
-    path = results / "benchmarks" / "identify" / f"{key}.tsv"
-    if not path.exists():
-        return None
-    return float(path.read_text().splitlines()[1].split()[0])
+    return benchmark_seconds(results / "benchmarks" / "identify" / f"{key}.tsv")
 
 
 def compare(before: Path, after: Path, rtol: float, only=None):

@@ -36,6 +36,7 @@ from pathlib import Path
 import xarray as xr
 
 from breastcore.forward.options import SolverOptions
+from breastcore.pipeline.logs import benchmark_seconds
 from breastcore.report.text_table import header, print_table
 
 STEP = re.compile(r"breastcore\.forward(?:\.continuation)?: (\S+): step t=(\S+) load=\S+ δ=\S+: (.*) in \d+ iterations")
@@ -52,8 +53,8 @@ def jobs(results: Path, since_hash: str | None):
             attrs = dict(ds.attrs)
         if since_hash and not attrs["source_hash"].startswith(since_hash):
             continue
-        bench = results / "benchmarks" / "identify" / f"{path.stem}.tsv"
-        seconds = float(bench.read_text().splitlines()[1].split()[0]) if bench.exists() else float("nan")
+        seconds = benchmark_seconds(results / "benchmarks" / "identify" / f"{path.stem}.tsv")
+        seconds = float("nan") if seconds is None else seconds
         out.append((path.stem, attrs["mesh_level"], int(attrs["failed_solves"]), seconds))
     return out
 

@@ -24,15 +24,9 @@ import sys
 from collections import defaultdict
 from pathlib import Path
 
+from breastcore.pipeline.logs import benchmark_seconds
 from breastcore.pipeline.plan import plan_from_files
 from breastcore.report.text_table import header, print_table
-
-
-def benchmark_seconds(path: Path):
-    """Wall seconds from a Snakemake ``benchmark:`` file (its first data row), or None if absent."""
-    if not path.exists():
-        return None
-    return float(path.read_text().splitlines()[1].split()[0])
 
 
 def scene_groups(plan, workdir: Path) -> dict:

@@ -32,8 +32,7 @@ def preview_run(tmp_path):
             seconds = 0.5
             if stage == "identify":
                 start = next(r["start"] for s in preview.scenes.values() if s["kind"] == "synthetic"
-                             for r in preview.jobs["scene"][s["summary"]]["runs"]
-                             if r["identification"].endswith(dataset))
+                             for r in s["runs"] if r["identification"].endswith(dataset))
                 seconds = COST[level] * (1 + start)
             _benchmark(tmp_path / preview.results / "benchmarks" / stage / f"{Path(name).stem}.tsv", seconds)
     return tmp_path
