@@ -6,7 +6,7 @@ Usage::
 
 Reads every ``<results>/identify/*.nc`` (mesh level, failed solves), the job's
 Snakemake benchmark (wall seconds) and its log (one line per Newton iteration and
-per solve), and prints three tables:
+per solve), and prints four tables:
 
 - job time per mesh level, with the jobs that had failed trial solves;
 - Newton iterations per kind of forward solve: ``warm`` (the target problem solved
@@ -14,6 +14,8 @@ per solve), and prints three tables:
   continuation from the reference), ``warm fallback`` (a warm start that failed and
   went on by δ continuation); and the modified-Newton steps per job (iterations whose
   step came from the PSD-projected or shifted Hessian, ``mode=project|shift``);
+- where the job time goes: the first cold solve (up to LM's iteration 0) and the time
+  outside the log's span (the job's start-up), per level (:func:`job_phases`);
 - how often the final continuation step (full gravity, target δ, full tolerance)
   failed before a solve succeeded or gave up, which is what
   ``SolverOptions.max_final_attempts`` caps; and, over the solves that gave up after
@@ -43,6 +45,7 @@ STEP = re.compile(r"breastcore\.forward(?:\.continuation)?: (\S+): step t=(\S+) 
 CONVERGED = re.compile(r"breastcore\.forward(?:\.continuation)?: (\S+): converged in (\d+) iterations \((\d+) continuation")
 GAVE_UP = re.compile(r"forward solve failed \((\S+): ")
 MODIFIED = re.compile(r"newton it=.* mode=(?:project|shift) ")
+FIRST_ITERATE = re.compile(r": identify it=0 ")
 
 
 def jobs(results: Path, since_hash: str | None):
@@ -101,6 +104,19 @@ def solve_kinds(log: Path, cap: int = SolverOptions().max_final_attempts):
     return iterations, counts, outcomes, retry
 
 
+def job_phases(log: Path, seconds: float):
+    """``(first solve, outside the log)`` seconds of one identification job.
+
+    The first is from the log's first line to LM's iteration 0, i.e. the cold solve at the
+    start; the second is the job's ``benchmark:`` time less its log's span: the process's
+    start-up (interpreter, imports, numba's cached kernels) and what follows the last line.
+    """
+    lines = [line for line in log.read_text(errors="replace").splitlines() if line[:2] == "20"]
+    start = _time(lines[0])
+    first = next((_time(line) for line in lines if FIRST_ITERATE.search(line)), start)
+    return (first - start).total_seconds(), seconds - (_time(lines[-1]) - start).total_seconds()
+
+
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--results", default="results", type=Path)
@@ -113,6 +129,8 @@ def main(argv=None):
         by_level[row[1]].append(row)
     table, kinds = [], collections.defaultdict(lambda: [collections.Counter(), collections.Counter()])
     outcomes, retry, modified = collections.Counter(), collections.Counter(), collections.Counter()
+    phases = collections.defaultdict(list)
+    seconds_of = {r[0]: r[3] for r in rows}
     for level, level_rows in by_level.items():
         times = [r[3] for r in level_rows]
         failed = [r[3] for r in level_rows if r[2] > 0]
@@ -127,6 +145,7 @@ def main(argv=None):
                 outcomes.update(outs)
                 retry.update(seconds)
                 modified[level] += len(MODIFIED.findall(log.read_text()))
+                phases[level].append((seconds_of[key], *job_phases(log, seconds_of[key])))
     total = sum(r[3] for r in rows)
     table.append(["all", len(rows), f"{total:.0f}", "", "", "", sum(r[2] > 0 for r in rows),
                   f"{sum(r[3] for r in rows if r[2] > 0):.0f}"])
@@ -137,6 +156,13 @@ def main(argv=None):
                 [[level] + [f"{c[1][k]} ({c[0][k]})" for k in ("warm", "cold", "warm fallback")]
                  + [f"{modified[level] / len(by_level[level]):.0f}"]
                  for level, c in kinds.items()], "Forward solves by kind")
+    print_table(["level", "job time (s)", "first cold solve (s)", "share", "outside the log (s)", "share",
+                 "outside the log, median per job (s)"],
+                [[level, f"{sum(p[0] for p in ps):.0f}", f"{sum(p[1] for p in ps):.0f}",
+                  f"{sum(p[1] for p in ps) / sum(p[0] for p in ps):.1%}", f"{sum(p[2] for p in ps):.0f}",
+                  f"{sum(p[2] for p in ps) / sum(p[0] for p in ps):.1%}", f"{statistics.median(p[2] for p in ps):.2f}"]
+                 for level, ps in [*phases.items(), ("all", [p for ps in phases.values() for p in ps])]],
+                "Where the job time goes")
     print_table(["outcome", "final-step failures before it", "solves"],
                 [[o, k, n] for (o, k), n in sorted(outcomes.items())], "Final continuation step")
     cap = SolverOptions().max_final_attempts

@@ -1,17 +1,22 @@
 """breastcore/studies/paper_scene_logs.py reads the log lines the solver really writes."""
 
 import logging
+import time
+
+import numpy as np
 
 import pytest
 
 from breastcore.forward.model import ForwardModel
 from breastcore.forward.options import SolverOptions
 from breastcore.forward.records import SolveError
+from breastcore.inverse.identify import identify
+from breastcore.inverse.operator import MeasurementModel
 from breastcore.model.mesh import mesh_level
 from breastcore.model.parameters import Parameters
-from breastcore.model.postures import Posture
+from breastcore.model.postures import Posture, paper_postures
 from breastcore.pipeline.logs import log_to
-from breastcore.studies.paper_scene_logs import solve_kinds
+from breastcore.studies.paper_scene_logs import job_phases, solve_kinds
 
 
 def test_solve_kinds_counts_cold_warm_and_final_step_failures(tmp_path):
@@ -36,3 +41,24 @@ def test_solve_kinds_counts_cold_warm_and_final_step_failures(tmp_path):
     retry = solve_kinds(log, cap=1)[3]
     assert retry["after first"] > 0 and retry["up to cap"] == 0
     assert solve_kinds(log, cap=2)[3] == {}                    # not more failures than the cap
+
+
+def test_job_phases_times_the_first_solve_and_what_lies_outside_the_log(tmp_path):
+    mm = MeasurementModel(ForwardModel(mesh_level("coarse")), Parameters(), paper_postures())
+    truth = np.array(Parameters().identified())
+    target = mm.measure(mm.solve(truth))
+    log = tmp_path / "identify.log"
+    with log_to(log):
+        tic = time.perf_counter()
+        identify(mm, target, truth * 1.1)
+        wall = time.perf_counter() - tic
+    lines = log.read_text().splitlines()
+    span = (_stamp(lines[-1]) - _stamp(lines[0])).total_seconds()
+    first, outside = job_phases(log, wall + 2.0)               # as if the process took 2 s more to start
+    assert 0 < first < span and any("identify it=0 " in line for line in lines)
+    assert outside == pytest.approx(wall + 2.0 - span) and outside >= 2.0
+
+
+def _stamp(line):
+    import datetime
+    return datetime.datetime.strptime(line[:23], "%Y-%m-%d %H:%M:%S,%f")
