@@ -30,8 +30,8 @@ from breastcore.model.postures import Posture
 #: ``(R, H)`` reference geometries a :class:`ForwardModel` keeps, newest first: an implicit Jacobian visits
 #: five (Λ, and R ± h, H ± h, for every posture); older trial points are rarely revisited.
 GEOMETRY_CACHE_ENTRIES = 8
-#: ... and at most this many bytes of them, the newest always: 0.65 MB each on medium, 3 MB on
-#: ultra-thin, about 75 MB on fine50k.
+#: ... and at most this many bytes of their bulk and skin arrays (the gravity and sliding terms are small), the newest
+#: always kept: 0.65 MB each on medium, 3 MB on ultra-thin, about 75 MB on fine50k.
 GEOMETRY_CACHE_BYTES = 512 * 2**20
 
 
