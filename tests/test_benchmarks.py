@@ -39,7 +39,7 @@ def make_flags(target):
 def test_make_bench_runs_every_script_in_its_quick_mode():
     assert {s.stem for s in SCRIPTS} == {"bench_cold_factorisations", "bench_cold_variants", "bench_factorization", "bench_forward", "bench_identify",
                                          "bench_inertia", "bench_iterative_solver", "bench_problem_builds", "bench_projection",
-                                         "bench_table1_variants", "bench_warm_radius"}
+                                         "bench_table1_variants", "bench_warm_distance", "bench_warm_radius"}
     run = MAKEFILE.split("BENCH_RUN =")[1].split("\n\n")[0]
     assert "benchmarks/bench_*.py" in run and "$(BENCH_FLAGS)" in run and "|| exit 1" in run
     assert make_flags("bench") == ["--quick"]
@@ -79,6 +79,10 @@ def test_quick_defaults_leave_the_full_defaults_alone():
     assert "fine50k" not in bench["bench_factorization"].parse_args(["--quick"]).levels
     assert bench["bench_projection"].parse_args([]).repeats == 7
     assert bench["bench_forward"].parse_args(["--quick"]).repeats == 3
+    distance = bench["bench_warm_distance"].parse_args([])
+    assert (distance.level, distance.points, distance.chains) == ("ultra-thin", 3, [3, 6])
+    quick = bench["bench_warm_distance"].parse_args(["--quick"])
+    assert (quick.level, quick.points) == ("coarse", 2)
     warm = bench["bench_warm_radius"].parse_args([])
     assert (warm.level, warm.starts) == ("medium-thin", 2)
     from breastcore.studies import stability_grid
@@ -123,3 +127,16 @@ def test_warm_radius_builds_missing_inputs_with_the_workflow_stages(tmp_path, mo
     workflow_file.parent.mkdir(parents=True)
     shutil.copy(got, workflow_file)
     assert Path(warm.ensure_input(plan, "measure", measure_path, built)) == workflow_file
+
+
+def test_warm_distance_directions_keep_the_cap_valid():
+    """Every point of every path is a valid cap (H < R) and the direction's largest entry is 1."""
+    import numpy as np
+    from breastcore.model.parameters import Parameters
+    distance = load(ROOT / "benchmarks" / "bench_warm_distance.py")
+    for base, d in distance.directions(5):
+        assert np.abs(d).max() == 1.0 and np.abs(d).min() >= 0.5
+        for s in (0.01, 0.3, 1.0):
+            Parameters().with_identified(base * np.exp(s * d))          # raises ParameterError if H ≥ R
+    with pytest.raises(SystemExit):
+        distance.parse_args(["--points", "0"])
