@@ -134,9 +134,11 @@ def test_warm_distance_directions_keep_the_cap_valid():
     import numpy as np
     from breastcore.model.parameters import Parameters
     distance = load(ROOT / "benchmarks" / "bench_warm_distance.py")
-    for base, d in distance.directions(5):
+    for base, d in distance.directions(30):                             # seed 0 draws H ≥ R at points 5, 6, 9 …
         assert np.abs(d).max() == 1.0 and np.abs(d).min() >= 0.5
         for s in (0.01, 0.3, 1.0):
             Parameters().with_identified(base * np.exp(s * d))          # raises ParameterError if H ≥ R
-    with pytest.raises(SystemExit):
-        distance.parse_args(["--points", "0"])
+    assert np.array_equal(distance.directions(2)[1][0], distance.directions(30)[1][0])   # a prefix of the sequence
+    for bad in (["--points", "0"], ["--steps", "0.01,,0.02"], ["--chains", "1"], ["--smoothing", "0"]):
+        with pytest.raises(SystemExit):
+            distance.parse_args(bad)

@@ -1,5 +1,4 @@
-"""How the 15 measurements depend on the Chassaignac smoothing length δ (spec §2: "say in the
-docs how the result depends on δ").
+"""How the 15 measurements depend on the Chassaignac smoothing length δ, as spec §2 asks the docs to say.
 
 The sliding term ``c Σ |T|/3 (sqrt(|u|² + δ²) − δ)`` is Tresca friction smoothed on the
 length δ: a back node that sticks moves by about ``δ f / c`` under a tangential stress ``f``
@@ -7,8 +6,9 @@ below ``c``. This study solves the three paper postures cold at Λ̄ on each mes
 δ, and prints the largest relative difference of the 15 measurements (``paper15``) at each δ
 from those at the next smaller δ of the list, per level, with the slope of ``log difference``
 against ``log δ``. For ``M(δ) = M(0) (1 + a δ)`` and δ falling by decades, the differences fall
-tenfold per decade (slope 1), and the difference between δ and δ/10 is 0.9 × the error of δ
-itself against the ``δ → 0`` limit.
+tenfold per decade (slope 1), and the difference between δ and δ/10 is, to first order in aδ,
+0.9 × the error of δ itself against the ``δ → 0`` limit. The slope is the order of the
+dependence only for δ in a geometric sequence (the default, by decades).
 
 Usage::
 
@@ -36,7 +36,21 @@ DELTAS = [1e-4, 1e-5, 1e-6, 1e-7]
 
 
 def measurements(model, params, postures):
-    """The 15 ``paper15`` measurements (SI) of the cold equilibria at ``params``, and the solve time (s)."""
+    """The ``paper15`` measurements of the cold equilibria at ``params``, and the solve time.
+
+    Parameters
+    ----------
+    model : ForwardModel
+    params : Parameters
+    postures : sequence of Posture
+
+    Returns
+    -------
+    values : (5 × len(postures),) array
+        Posture by posture, in SI units (m³, m², m).
+    seconds : float
+        Wall time of the solves, s.
+    """
     from breastcore.inverse.measurements import QUANTITIES, measure
     tic, values = time.perf_counter(), []
     for posture in postures:
@@ -56,8 +70,10 @@ def differences(by_delta):
     Returns
     -------
     diff : dict of float → float
+        The largest relative difference (1) of each δ from the next smaller one.
     slope : float
-        Least-squares slope of ``log diff`` against ``log δ`` (NaN with fewer than two).
+        Least-squares slope of ``log diff`` against ``log δ``, over the positive differences
+        (NaN with fewer than two).
     """
     deltas = sorted(by_delta)
     diff = {d: float(np.max(np.abs(by_delta[d] / by_delta[smaller] - 1.0))) for smaller, d in zip(deltas, deltas[1:])}
@@ -72,19 +88,21 @@ def parse_args(argv=None):
     parser.add_argument("--quick", action="store_true", help="the coarse level only")
     args = parser.parse_args(argv)
     args.levels = args.levels or (["coarse"] if args.quick else LEVELS)
+    args.deltas = sorted(set(args.deltas), reverse=True)
     if len(args.deltas) < 2 or min(args.deltas) <= 0:
-        parser.error("give at least two smoothing lengths, all > 0")
+        parser.error("give at least two different smoothing lengths, all > 0")
     return args
 
 
 def main(argv=None):
+    """Print the table of differences, slopes and solve times per level."""
     from breastcore.forward.model import ForwardModel
     from breastcore.model.mesh import mesh_level
     from breastcore.model.parameters import Parameters
     from breastcore.model.postures import paper_postures
     args = parse_args(argv)
     header("Smoothing dependence", [sys.argv[0]] + (argv if argv is not None else sys.argv[1:]))
-    deltas = sorted(args.deltas, reverse=True)
+    deltas = args.deltas
     rows = []
     for level in args.levels:
         model = ForwardModel(mesh_level(level))

@@ -14,6 +14,8 @@ def test_differences_and_slope_of_a_linear_dependence():
     assert diff[1e-4] == pytest.approx(5.0 * (1e-4 - 1e-5) / (1 + 5e-5), rel=1e-9)   # from the next smaller δ
     assert diff[1e-5] == pytest.approx(5.0 * (1e-5 - 1e-6) / (1 + 5e-6), rel=1e-9)
     assert slope == pytest.approx(1.0, abs=1e-3)
+    error = 5.0 * 1e-5                                                  # of δ = 1e-5 against δ → 0
+    assert diff[1e-5] == pytest.approx(0.9 * error, rel=1e-4)          # 0.9 × it, to first order in aδ
     quadratic = {d: limit * (1 + d ** 2) for d in (1e-1, 1e-2, 1e-3)}
     assert study.differences(quadratic)[1] == pytest.approx(2.0, abs=0.01)
 
@@ -23,6 +25,9 @@ def test_bad_arguments_are_refused():
         study.parse_args(["--deltas", "1e-6"])
     with pytest.raises(SystemExit):
         study.parse_args(["--deltas", "1e-6", "0"])
+    with pytest.raises(SystemExit):
+        study.parse_args(["--deltas", "1e-6", "1e-6"])                  # one δ given twice
+    assert study.parse_args(["--deltas", "1e-6", "1e-4", "1e-6"]).deltas == [1e-4, 1e-6]
     assert study.parse_args(["--quick"]).levels == ["coarse"]
     assert study.parse_args([]).levels == study.LEVELS
 
