@@ -24,7 +24,11 @@ identification's forward solves only (the truth is the workflow's):
   δ = 1e-5 m or 1e-4 m instead of the spec's 1e-6 m in the identification's model (a shorter
   δ continuation, or none),
   while the data stay those of δ = 1e-6 m: the estimate's difference from ``default``'s is
-  what that δ costs in accuracy.
+  what that δ costs in accuracy;
+- ``reduced4``, ``reduced8``: ``IdentificationOptions.reduced_snapshots`` = 4 or 8: trial points
+  beyond the warm radius start from the energy's minimiser over the span of the last 4 or 8
+  accepted equilibria's displacements (:func:`breastcore.forward.reduced.reduced_start`)
+  instead of cold; ``reduced8+no-delta-phase+chord0.5`` with the solver variant above.
 
 Per job it prints the time, LM iterations, forward solves, the mean |estimate/truth − 1|
 over the six parameters and the largest relative difference of the estimate from the
@@ -51,14 +55,17 @@ from benchmarks.bench_warm_radius import job_inputs, table1_runs  # noqa: E402
 from breastcore.io.datasets import open_dataset  # noqa: E402
 from breastcore.stages.identify import run_identify  # noqa: E402
 
-#: Variant name → (SolverOptions keys, model constants) of the identification's forward solves.
+#: Variant name → (SolverOptions keys, model constants, IdentificationOptions keys) of the identification.
 VARIANTS = {
-    "default": ({}, {}),
-    "chord0.5": ({"reuse_factor": 0.5}, {}),
-    "no-delta-phase": ({"smoothing_start": 1e-6}, {}),
-    "no-delta-phase+chord0.5": ({"smoothing_start": 1e-6, "reuse_factor": 0.5}, {}),
-    "delta1e-5": ({}, {"smoothing": 1e-5}),
-    "delta1e-4": ({}, {"smoothing": 1e-4}),
+    "default": ({}, {}, {}),
+    "chord0.5": ({"reuse_factor": 0.5}, {}, {}),
+    "no-delta-phase": ({"smoothing_start": 1e-6}, {}, {}),
+    "no-delta-phase+chord0.5": ({"smoothing_start": 1e-6, "reuse_factor": 0.5}, {}, {}),
+    "delta1e-5": ({}, {"smoothing": 1e-5}, {}),
+    "delta1e-4": ({}, {"smoothing": 1e-4}, {}),
+    "reduced4": ({}, {}, {"reduced_snapshots": 4}),
+    "reduced8": ({}, {}, {"reduced_snapshots": 8}),
+    "reduced8+no-delta-phase+chord0.5": ({"smoothing_start": 1e-6, "reuse_factor": 0.5}, {}, {"reduced_snapshots": 8}),
 }
 SCENES = {"cross": "paper_table1", "same": "paper_table1_same"}
 
@@ -101,8 +108,9 @@ def main(argv=None):
         spec = plan.jobs["identify"][run["identification"]]
         reference = None
         for variant in args.variants:
-            solver, constants = VARIANTS[variant]
-            job = {**spec, "solver": {**spec["solver"], **solver}, "constants": {**spec["constants"], **constants}}
+            solver, constants, identification = VARIANTS[variant]
+            job = {**spec, "solver": {**spec["solver"], **solver}, "constants": {**spec["constants"], **constants},
+                   "identification": {**spec["identification"], **identification}}
             out = out_dir / f"{reading}-{args.level}-{run['offset']}-{run['start']}-{variant}.nc"
             tic = time.perf_counter()
             run_identify(job, inputs[spec["measurements"]], inputs[spec["mesh"]], out)

@@ -82,14 +82,16 @@ class ProblemSpec:
         """Raise ProblemSpecError unless the measurement model ``mm`` is the one this spec builds.
 
         A dataset that records this spec must have been computed with it: constants,
-        solver options, postures, measurement set and warm-start radius. The spec must
+        solver options, postures, measurement set, warm-start radius and reduced-start snapshots. The spec must
         have identification options (the radius is theirs; ProblemSpecError otherwise).
         """
         radius = self.warm_radius()
         found = {"parameters": mm.base, "solver": mm.model.options, "postures": tuple(mm.postures),
-                 "measurement_set": mm.measurement_set, "warm_radius": mm.warm_radius}
+                 "measurement_set": mm.measurement_set, "warm_radius": mm.warm_radius,
+                 "reduced_snapshots": mm.reduced_snapshots}
         wanted = {"parameters": self.parameters, "solver": self.solver, "postures": self.postures,
-                  "measurement_set": self.measurement_set, "warm_radius": radius}
+                  "measurement_set": self.measurement_set, "warm_radius": radius,
+                  "reduced_snapshots": self.identification.reduced_snapshots}
         wrong = [k for k in wanted if found[k] != wanted[k]]
         if wrong:
             raise ProblemSpecError(f"the measurement model differs from the problem spec in {', '.join(wrong)}")

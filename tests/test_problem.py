@@ -34,7 +34,7 @@ SOLVER = dict(method="newton", rtol=1e-7, stage_rtol=2e-5, smoothing_start=2e-4,
               reuse_factor=0.25)
 IDENTIFICATION = dict(method="lm", jacobian="implicit", fd_step=2e-4, cost_tol=1e-13, cost_rtol=0.01, xtol=1e-7,
                       ftol=1e-7, gtol=1e-9, max_iterations=3, noise=0.05, initial_trust_radius=0.4,
-                      fixed_iterations=False, warm_radius=0.07)
+                      fixed_iterations=False, warm_radius=0.07, reduced_snapshots=3)
 POSTURES = [{"name": "standing", "angle": 0.0}, {"name": "lean", "angle": 30.0}, {"name": "fours", "angle": 90.0}]
 
 
@@ -169,6 +169,7 @@ def test_identification_records_and_rebuilds_exactly_its_problem(stages):
     assert problem == recorded
     problem.check_model(mm)
     assert mm.warm_radius == 0.07 and mm.model.options == SolverOptions(**SOLVER)
+    assert mm.reduced_snapshots == 3 and mm.warm_starts().snapshots == 3
     assert mm.base.chassaignac == 300.0 and mm.base.smoothing == 1e-5 and mm.measurement_set == "exact"
     np.testing.assert_array_equal(mm.model.mesh.nodes, mesh_level("coarse").nodes)   # node for node
     np.testing.assert_array_equal(estimate, ds["estimate"].values)

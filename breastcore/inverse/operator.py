@@ -18,6 +18,7 @@ import dataclasses
 
 from breastcore.fem.terms import BulkNeoHookean, SkinMembrane, modulus_gradient
 from breastcore.forward.model import ForwardModel
+from breastcore.forward.reduced import reduced_start
 from breastcore.inverse.measurements import QUANTITIES, measure
 from breastcore.inverse.warm_start import WarmStarts
 from breastcore.model.parameters import IDENTIFIED, Parameters
@@ -54,10 +55,14 @@ class MeasurementModel:
         (:meth:`ForwardModel.solve_postures`; the same results bit for bit).
         Worth it from the thin mesh up: each call forks and redoes the symbolic
         factorisation (~0.1 s on ultra-thin), against 1-7 s for a posture.
+    reduced_snapshots : int
+        0: solves beyond ``warm_radius`` are cold. n > 0: they start from
+        :func:`~breastcore.forward.reduced.reduced_start` over the last n remembered
+        equilibria of the :class:`WarmStarts` passed in (cold while it has none).
     """
 
     def __init__(self, model: ForwardModel, base: Parameters, postures, measurement_set="paper15",
-                 warm_radius=0.05, processes=1):
+                 warm_radius=0.05, processes=1, reduced_snapshots=0):
         self.model = model
         self.base = base
         self.postures = tuple(postures)
@@ -67,6 +72,7 @@ class MeasurementModel:
         if int(processes) < 1:
             raise ValueError(f"processes must be ≥ 1, got {processes!r}")
         self.processes = int(processes)
+        self.reduced_snapshots = int(reduced_snapshots)
         self.solves = 0                                  # a counter of forward solves, for the record
 
     @classmethod
@@ -86,14 +92,15 @@ class MeasurementModel:
         elif model.options != problem.solver:
             raise ValueError("the forward model's solver options are not the problem's")
         return cls(model, problem.parameters, problem.postures, problem.measurement_set,
-                   warm_radius=warm_radius, processes=processes)
+                   warm_radius=warm_radius, processes=processes,
+                   reduced_snapshots=problem.identification.reduced_snapshots)
 
     def params(self, values) -> Parameters:
         return self.base.with_identified(values)
 
     def warm_starts(self) -> WarmStarts:
         """An empty warm-start policy of this model's radius (the first solve is cold)."""
-        return WarmStarts(self.warm_radius)
+        return WarmStarts(self.warm_radius, self.reduced_snapshots)
 
     def solve(self, values, warm: WarmStarts | None = None, jacobian=False):
         """Equilibria of all postures at ``Λ = values``, from ``warm``'s starts (cold without). Raises SolveError.
@@ -107,6 +114,8 @@ class MeasurementModel:
         """
         params = self.params(values)
         starts = warm.starts(values, self.postures) if warm is not None else {p.name: None for p in self.postures}
+        if warm is not None and warm.history:
+            starts = self._reduced_starts(params, starts, warm.history)
         if self.processes > 1:
             at = np.array(values, dtype=float)
 
@@ -123,6 +132,16 @@ class MeasurementModel:
                 solutions[posture.name] = self.model.solve(params, posture, starts[posture.name])
                 self.solves += 1
         return {name: dataclasses.replace(s, cold_start=starts[name] is None) for name, s in solutions.items()}
+
+    def _reduced_starts(self, params, starts, history):
+        """``starts`` with each missing (cold) one replaced by the reduced-space start over ``history``."""
+        out = dict(starts)
+        for posture in self.postures:
+            if out[posture.name] is None:
+                displacements = [positions[posture.name] - self.model.reference(values[0], values[1])   # R, H
+                                 for values, positions in history]
+                out[posture.name] = reduced_start(self.model, params, posture, displacements)
+        return out
 
     @staticmethod
     def solved_cold(solutions) -> bool:

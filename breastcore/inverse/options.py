@@ -59,6 +59,12 @@ class IdentificationOptions:
         relative distance (max over the six parameters) of the new Λ; farther away,
         solve cold (:class:`~breastcore.inverse.operator.MeasurementModel`). 0 turns warm
         starts between different Λ off, and with them the branch check.
+    reduced_snapshots : int
+        n > 0: start a solve beyond ``warm_radius`` from the energy's minimiser over the span of
+        the displacements of the last n remembered equilibria, not cold; 0 (default): cold.
+        (:func:`~breastcore.forward.reduced.reduced_start`; the branch check then compares the
+        estimate with a cold solve.) Opt-in (issue #21): it can change which equilibrium a
+        far trial point reaches.
     """
 
     method: str = "lm"
@@ -74,6 +80,7 @@ class IdentificationOptions:
     initial_trust_radius: float = 0.5
     fixed_iterations: bool = False
     warm_radius: float = 0.05
+    reduced_snapshots: int = 0
 
     def __post_init__(self):
         if self.method not in ("lm", "gauss-newton"):
@@ -86,5 +93,7 @@ class IdentificationOptions:
             raise ValueError(f"cost_rtol must be in [0, 1), got {self.cost_rtol!r}")
         if not 0 <= self.warm_radius < np.inf:
             raise ValueError(f"warm_radius must be finite and ≥ 0, got {self.warm_radius!r}")
+        if int(self.reduced_snapshots) != self.reduced_snapshots or self.reduced_snapshots < 0:
+            raise ValueError(f"reduced_snapshots must be an integer ≥ 0, got {self.reduced_snapshots!r}")
         if self.fixed_iterations and self.method != "gauss-newton":
             raise ValueError("fixed_iterations applies to method 'gauss-newton' only")

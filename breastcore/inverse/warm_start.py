@@ -22,12 +22,18 @@ class WarmStarts:
         at the same Λ. (The standing posture has more than one local equilibrium: a
         warm start from far away can land on another branch than the cold path that
         defines ``M(Λ)``.)
+    snapshots : int
+        Keep the last this many remembered equilibria in ``history`` (0: none), for the
+        reduced-space start of solves beyond ``radius``
+        (:func:`~breastcore.forward.reduced.reduced_start`).
     """
 
-    def __init__(self, radius: float):
+    def __init__(self, radius: float, snapshots: int = 0):
         self.radius = float(radius)
         self.values = None
         self.positions = {}
+        self.snapshots = int(snapshots)
+        self.history = []                   # the last ``snapshots`` remembered (Λ, positions), oldest first
 
     @classmethod
     def at(cls, radius, solutions, values) -> "WarmStarts":
@@ -40,6 +46,8 @@ class WarmStarts:
         """Start the next solves from these equilibria, at ``Λ = values``."""
         self.positions = {name: s.position for name, s in solutions.items()}
         self.values = np.array(values, dtype=float)
+        if self.snapshots:
+            self.history = (self.history + [(self.values, self.positions)])[-self.snapshots:]
 
     def starts(self, values, postures) -> dict:
         """``{posture name: (N, 3) start or None}`` for a solve at ``values``."""
