@@ -41,7 +41,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 from benchmarks._common import header, print_table  # noqa: E402
 
 from breastcore.forward.model import ForwardModel  # noqa: E402
-from breastcore.inverse.measurements import QUANTITIES, measure  # noqa: E402
+from breastcore.inverse.operator import MeasurementModel  # noqa: E402
+from breastcore.inverse.warm_start import WarmStarts  # noqa: E402
 from breastcore.model.mesh import mesh_level  # noqa: E402
 from breastcore.model.parameters import IDENTIFIED, Parameters  # noqa: E402
 from breastcore.model.postures import paper_postures  # noqa: E402
@@ -93,25 +94,21 @@ class Solver:
     """The three paper postures of ``model`` at Λ, cold or from given equilibria; counts and clocks them."""
 
     def __init__(self, model, smoothing):
-        self.model, self.base, self.postures = model, Parameters(smoothing=smoothing), paper_postures()
+        self.mm = MeasurementModel(model, Parameters(smoothing=smoothing), paper_postures())
 
-    def __call__(self, values, starts=None):
-        """``(positions by posture, Newton iterations, seconds)`` of the equilibria at Λ = ``values``.
+    def __call__(self, values, start=None):
+        """``(solutions by posture, Newton iterations, seconds)`` of the equilibria at Λ = ``values``.
 
-        ``starts``: ``{posture name: (N, 3) positions, m}`` to start from; None: cold.
+        ``start``: ``(Λ, solutions)`` of equilibria to start every posture from; None: cold.
         """
-        params = self.base.with_identified(values)
-        tic, iterations, positions = time.perf_counter(), 0, {}
-        for posture in self.postures:
-            solution = self.model.solve(params, posture, None if starts is None else starts[posture.name])
-            iterations += solution.iterations
-            positions[posture.name] = solution.position
-        return positions, iterations, time.perf_counter() - tic
+        warm = None if start is None else WarmStarts.at(np.inf, start[1], start[0])
+        tic = time.perf_counter()
+        solutions = self.mm.solve(values, warm)
+        return solutions, sum(s.iterations for s in solutions.values()), time.perf_counter() - tic
 
-    def measurements(self, positions):
-        """The 15 ``paper15`` measurements (SI units) of the postures' ``positions``, posture by posture."""
-        return np.concatenate([[measure(self.model.mesh, positions[p.name], "paper15")[q] for q in QUANTITIES]
-                               for p in self.postures])
+    def measurements(self, solutions):
+        """The 15 ``paper15`` measurements (SI units) of ``solutions``, posture by posture."""
+        return self.mm.measure(solutions).ravel()
 
 
 def main(argv=None):
@@ -122,7 +119,7 @@ def main(argv=None):
     solve(directions(1)[0][0])                                   # warm-up: compile the kernels
     rows, totals = [], {}
     for point, (base, d) in enumerate(directions(args.points)):
-        start, _, _ = solve(base)
+        start = (base, solve(base)[0])
         for s in args.steps:
             values = base * np.exp(s * d)
             cold, cold_its, cold_s = solve(values)
@@ -132,11 +129,11 @@ def main(argv=None):
                 runs += [(f"chain {n}", [base * np.exp(k * s * d / n) for k in range(1, n + 1)]) for n in args.chains]
             rows.append([point, f"{s:g}", "cold", cold_its, f"{cold_s:.2f}", "1.00", "0"])
             for mode, path in runs:
-                positions, its, seconds = start, 0, 0.0
+                previous, its, seconds = start, 0, 0.0
                 for stop in path:
-                    positions, i, t = solve(stop, positions)
-                    its, seconds = its + i, seconds + t
-                change = float(np.max(np.abs(solve.measurements(positions) / m_cold - 1)))
+                    solutions, i, t = solve(stop, previous)
+                    previous, its, seconds = (stop, solutions), its + i, seconds + t
+                change = float(np.max(np.abs(solve.measurements(solutions) / m_cold - 1)))
                 rows.append([point, f"{s:g}", mode, its, f"{seconds:.2f}", f"{seconds / cold_s:.2f}", f"{change:.1e}"])
                 totals.setdefault((mode, s), []).append(seconds / cold_s)
     print_table(["point", "step s", "start", "Newton iterations", "time (s)", "time / cold", "max ΔM"], rows,

@@ -45,12 +45,10 @@ def reduced_start(model, params, posture, displacements, max_iterations=MAX_ITER
     constraints.
     """
     problem = model.problem(params, posture)
-    reference = problem.reference
-    basis = np.column_stack([problem.free(reference + np.asarray(u)) - problem.free(reference)
-                             for u in displacements])
+    basis = np.column_stack([problem.free(u) for u in displacements])          # free() is a linear restriction
     basis, singular, _ = np.linalg.svd(basis, full_matrices=False)
     basis = basis[:, singular > 1e-10 * singular.max()]
-    z0 = problem.free(reference)
+    z0 = problem.free(problem.reference)
     a = np.zeros(basis.shape[1])
     energy = problem.value(z0)
     moved = False

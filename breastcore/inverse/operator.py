@@ -136,10 +136,13 @@ class MeasurementModel:
     def _reduced_starts(self, params, starts, history):
         """``starts`` with each missing (cold) one replaced by the reduced-space start over ``history``."""
         out = dict(starts)
+        # the snapshots' reference positions by the cap map alone: model.reference would build
+        # (and cache, evicting the trial's) each snapshot's whole bulk and skin geometry
+        references = [self.model.map.positions(values[0], values[1]) for values, _ in history]   # R, H
         for posture in self.postures:
             if out[posture.name] is None:
-                displacements = [positions[posture.name] - self.model.reference(values[0], values[1])   # R, H
-                                 for values, positions in history]
+                displacements = [positions[posture.name] - reference
+                                 for (_, positions), reference in zip(history, references)]
                 out[posture.name] = reduced_start(self.model, params, posture, displacements)
         return out
 

@@ -49,17 +49,14 @@ def test_a_far_solve_from_the_reduced_start_is_shorter_and_lands_on_the_cold_equ
     assert np.abs(warm.position - cold.position).max() <= 1e-8
 
 
-def test_identification_with_reduced_starts_recovers_the_truth_and_checks_its_branch(model):
+def test_identification_with_reduced_starts_recovers_the_truth_and_checks_its_branch(model, monkeypatch):
     mm = MeasurementModel(model, Parameters(), paper_postures(), reduced_snapshots=4)
     target = mm.measure(mm.solve(TRUTH))
     initial = TRUTH * np.array([1.3, 0.7, 0.7, 1.3, 1.3, 0.7])
     calls = []
     original = MeasurementModel._reduced_starts
-    try:
-        MeasurementModel._reduced_starts = lambda self, *a: calls.append(1) or original(self, *a)
-        result = identify(mm, target, initial, IdentificationOptions(reduced_snapshots=4))
-    finally:
-        MeasurementModel._reduced_starts = original
+    monkeypatch.setattr(MeasurementModel, "_reduced_starts", lambda self, *a: calls.append(1) or original(self, *a))
+    result = identify(mm, target, initial, IdentificationOptions(reduced_snapshots=4))
     assert calls, "no trial point was started from the reduced space"
     assert np.abs(result.estimate / TRUTH - 1).max() <= 1e-6
 
