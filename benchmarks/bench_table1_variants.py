@@ -3,7 +3,7 @@
 Usage::
 
     python benchmarks/bench_table1_variants.py [--level ultra-thin] [--readings cross,same]
-                                               [--variants default,no-delta-phase+chord0.5]
+                                               [--variants before-21,default]
                                                [--starts 1] [--offsets 0.1,0.3,0.6,0.9]
     python benchmarks/bench_table1_variants.py --quick    # coarse, 1 start per offset (``make bench``)
 
@@ -15,24 +15,31 @@ other, so that a drift of the machine falls on all of them. A variant sets
 :class:`~breastcore.forward.options.SolverOptions` keys in the job's solver spec, for the
 identification's forward solves only (the truth is the workflow's):
 
-- ``default``: today's path;
-- ``chord0.5``: Newton's chord steps (``reuse_factor = 0.5``);
-- ``no-delta-phase``: the gravity ramp at the target δ (``smoothing_start = 1e-6`` m), no δ
-  continuation after it;
-- ``no-delta-phase+chord0.5``: both;
-- ``delta1e-5``, ``delta1e-4``: a model change, not a solver one: the Chassaignac smoothing
-  δ = 1e-5 m or 1e-4 m instead of the spec's 1e-6 m in the identification's model (a shorter
-  δ continuation, or none),
-  while the data stay those of δ = 1e-6 m: the estimate's difference from ``default``'s is
-  what that δ costs in accuracy;
-- ``reduced4``, ``reduced8``: ``IdentificationOptions.reduced_snapshots`` = 4 or 8: trial points
-  beyond the warm radius start from the energy's minimiser over the span of the last 4 or 8
-  accepted equilibria's displacements (:func:`breastcore.forward.reduced.reduced_start`)
-  instead of cold; ``reduced8+no-delta-phase+chord0.5`` with the solver variant above.
+Every variant spells out all four settings (``smoothing_start``, ``reuse_factor``, the smoothing δ,
+``reduced_snapshots``), so that its meaning does not move with the shipped defaults:
 
+- ``default``: today's path (no δ phase, chord steps 0.5, reduced starts over 8 snapshots);
+- ``before-21``: the path before issue #21: the gravity ramp at δ = 1e-4 m then a δ
+  continuation to 1e-6 m, a fresh factorisation every Newton iteration, cold solves beyond
+  the warm radius;
+- ``chord0.5``: ``before-21`` with Newton's chord steps (``reuse_factor = 0.5``);
+- ``no-delta-phase``: ``before-21`` with the gravity ramp at the target δ
+  (``smoothing_start = 1e-6`` m), no δ continuation after it;
+- ``no-delta-phase+chord0.5``: both;
+- ``delta1e-5``, ``delta1e-4``: a model change, not a solver one: ``before-21`` with the
+  Chassaignac smoothing δ = 1e-5 m or 1e-4 m instead of the spec's 1e-6 m in the
+  identification's model (a shorter δ continuation, or none), while the data stay those of
+  δ = 1e-6 m: the estimate's difference from the reference's is what that δ costs in accuracy;
+- ``reduced4``, ``reduced8``: ``before-21`` with ``IdentificationOptions.reduced_snapshots`` = 4
+  or 8: trial points beyond the warm radius start from the energy's minimiser over the span of
+  the last 4 or 8 accepted equilibria's displacements
+  (:func:`breastcore.forward.reduced.reduced_start`) instead of cold;
+  ``reduced8+no-delta-phase+chord0.5`` is ``default``.
+
+The first variant of ``--variants`` is the reference (default: ``before-21``).
 Per job it prints the time, LM iterations, forward solves, the mean |estimate/truth − 1|
 over the six parameters and the largest relative difference of the estimate from the
-``default`` variant's; then per variant the total time and its ratio to ``default``'s.
+reference variant's; then per variant the total time and its ratio to the reference's.
 Inputs are found or built as in ``bench_warm_radius.py`` (``benchmarks/results/warm_radius/inputs/``);
 the identifications are written to ``benchmarks/results/table1_variants/``. ``--quick``
 takes the coarse level and one start per offset, unless ``--level`` or ``--starts`` are given.
@@ -55,17 +62,22 @@ from benchmarks.bench_warm_radius import job_inputs, table1_runs  # noqa: E402
 from breastcore.io.datasets import open_dataset  # noqa: E402
 from breastcore.stages.identify import run_identify  # noqa: E402
 
+#: The solver settings before issue #21, and today's.
+BEFORE = {"smoothing_start": 1e-4, "reuse_factor": 0.0}
+NEW = {"smoothing_start": 1e-6, "reuse_factor": 0.5}
+COLD = {"reduced_snapshots": 0}
 #: Variant name → (SolverOptions keys, model constants, IdentificationOptions keys) of the identification.
 VARIANTS = {
-    "default": ({}, {}, {}),
-    "chord0.5": ({"reuse_factor": 0.5}, {}, {}),
-    "no-delta-phase": ({"smoothing_start": 1e-6}, {}, {}),
-    "no-delta-phase+chord0.5": ({"smoothing_start": 1e-6, "reuse_factor": 0.5}, {}, {}),
-    "delta1e-5": ({}, {"smoothing": 1e-5}, {}),
-    "delta1e-4": ({}, {"smoothing": 1e-4}, {}),
-    "reduced4": ({}, {}, {"reduced_snapshots": 4}),
-    "reduced8": ({}, {}, {"reduced_snapshots": 8}),
-    "reduced8+no-delta-phase+chord0.5": ({"smoothing_start": 1e-6, "reuse_factor": 0.5}, {}, {"reduced_snapshots": 8}),
+    "default": (NEW, {}, {"reduced_snapshots": 8}),
+    "before-21": (BEFORE, {}, COLD),
+    "chord0.5": ({**BEFORE, "reuse_factor": 0.5}, {}, COLD),
+    "no-delta-phase": ({**BEFORE, "smoothing_start": 1e-6}, {}, COLD),
+    "no-delta-phase+chord0.5": (NEW, {}, COLD),
+    "delta1e-5": (BEFORE, {"smoothing": 1e-5}, COLD),
+    "delta1e-4": (BEFORE, {"smoothing": 1e-4}, COLD),
+    "reduced4": (BEFORE, {}, {"reduced_snapshots": 4}),
+    "reduced8": (BEFORE, {}, {"reduced_snapshots": 8}),
+    "reduced8+no-delta-phase+chord0.5": (NEW, {}, {"reduced_snapshots": 8}),
 }
 SCENES = {"cross": "paper_table1", "same": "paper_table1_same"}
 
@@ -75,7 +87,7 @@ def parse_args(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--level", default=None, help="mesh level (default ultra-thin; --quick: coarse)")
     parser.add_argument("--readings", default="cross,same", help="comma-separated of cross, same (default both)")
-    parser.add_argument("--variants", default="default,no-delta-phase+chord0.5",
+    parser.add_argument("--variants", default="before-21,default",
                         help=f"comma-separated of {', '.join(VARIANTS)}; the first is the reference")
     parser.add_argument("--starts", type=int, default=None, help="starts per offset (default 1)")
     parser.add_argument("--offsets", default=None, help="comma-separated (default: all of the scene)")

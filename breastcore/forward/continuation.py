@@ -77,7 +77,8 @@ def solve_posture(model, params: Parameters, posture: Posture, start=None) -> Po
     solve warm-started from the last converged state; a failed step is halved, a
     good one lengthened ×2.
     With ``start`` (a previous solution, ``(N, 3)``), the target problem is tried
-    directly first, and continuation in δ from ``start`` is the fallback.
+    directly first, and continuation in δ from ``start`` is the fallback; without a δ
+    phase (target δ ≥ ``smoothing_start``) the fallback is the cold continuation.
 
     Raises
     ------
@@ -102,12 +103,20 @@ def solve_posture(model, params: Parameters, posture: Posture, start=None) -> Po
     steps = 0
     reference = model.reference(params.R, params.H)
     t, x = 0.0, reference
+    kind = "cold"
     if start is not None:
         problem, result, t, x = _direct_attempt(model, params, posture, start, reference, tolerance, delta_start)
+        kind = "warm"
         if result is not None:
             iterations, steps = result.iterations, 1
             if result.success:
-                return _finish(model, problem, result, posture, iterations, steps, tic)
+                return _finish(model, problem, result, posture, iterations, steps, tic, kind)
+        kind = "warm fallback"
+        if decades == 0:
+            # No δ phase to continue in from the start: re-solving the same target problem from
+            # the same start would fail the same way, so continue cold from the reference.
+            t, x = 0.0, reference
+            log.info("%s: the warm start failed; cold continuation", posture.name)
     t_end = 2.0 if decades > 0 else 1.0
     max_delta_step = 1.0 / max(decades, 1.0)          # δ falls at most one decade per step
     dt = 1.0 if t < 1.0 else max_delta_step
@@ -128,7 +137,7 @@ def solve_posture(model, params: Parameters, posture: Posture, start=None) -> Po
                   result.message, result.iterations)
         if result.success:
             if final:
-                return _finish(model, problem, result, posture, iterations, steps, tic)
+                return _finish(model, problem, result, posture, iterations, steps, tic, kind)
             t, x, x_delta = t_next, problem.full(result.x), delta
             dt = min(2.0 * dt, 1.0 if t < 1.0 else max_delta_step)
             continue
@@ -237,14 +246,15 @@ def _settle(model, problem, result):
     return escaped
 
 
-def _finish(model, problem, result, posture, iterations, steps, tic):
+def _finish(model, problem, result, posture, iterations, steps, tic, kind):
     extra_iterations = result.iterations
     result = _settle(model, problem, result)
     iterations += result.iterations - extra_iterations
     x = problem.full(result.x)
     min_det, stretch = _diagnostics(problem, x)
-    log.info("%s: converged in %d iterations (%d continuation steps), |g|=%.3e N", posture.name,
-             iterations, steps, result.gradient_norm)
+    # ``kind`` (cold, warm or warm fallback) is read back by breastcore.studies.paper_scene_logs
+    log.info("%s: converged in %d iterations (%d continuation steps, %s start), |g|=%.3e N", posture.name,
+             iterations, steps, kind, result.gradient_norm)
     pivots = None if result.negative_pivots is None else int(result.negative_pivots)   # at x; > 0: a saddle kept
     return PostureSolution(posture, x, True, iterations, steps, result.gradient_norm, result.tolerance,
                            result.energy, min_det, stretch, time.perf_counter() - tic, negative_pivots=pivots)

@@ -18,7 +18,11 @@ class SolverOptions:
     stage_rtol : float
         The looser tolerance of the intermediate continuation steps.
     smoothing_start : float
-        δ (m) at which the gravity ramp is done before δ is lowered to its target.
+        δ (m) at which the gravity ramp is done before δ is lowered to its target. The
+        default, 1e-6 m, is the default target δ: the ramp is done at the target, with no
+        δ phase (issue #21: 0.65× the time of Table-1 identifications on the two finest
+        paper levels together with the two options below; docs/benchmarks.md). 1e-4 m
+        was the default before.
     max_iterations : int
         Newton iterations per continuation step (CG: ``cg_max_iterations``).
     min_step : float
@@ -34,8 +38,8 @@ class SolverOptions:
     reuse_factor : float
         Newton's chord steps (:func:`~breastcore.nonlinear.newton.newton`'s ``reuse``): the
         last factorised Hessian is reused while the gradient norm falls to at most this
-        fraction per iteration. 0: a fresh factorisation every iteration, the method
-        before issue #21 (kept selectable for the benchmarks).
+        fraction per iteration. Default 0.5. 0: a fresh factorisation every iteration, the
+        method before issue #21 (kept selectable for the benchmarks).
     max_final_attempts : int
         The final δ step (full gravity, target δ, full tolerance) may fail this many
         times, each from a different converged neighbour, before the solve raises.
@@ -52,13 +56,13 @@ class SolverOptions:
     method: str = "newton"
     rtol: float = 1e-8
     stage_rtol: float = 1e-5
-    smoothing_start: float = 1e-4
+    smoothing_start: float = 1e-6
     max_iterations: int = 100
     min_step: float = 1.0 / 256
     cg_max_iterations: int = 20000
     max_extensions: int = 4
     max_final_attempts: int = 3
-    reuse_factor: float = 0.0
+    reuse_factor: float = 0.5
 
     def __post_init__(self):
         if self.method not in ("newton", "cg"):

@@ -71,6 +71,9 @@ def identify(mm, target, initial, options=IdentificationOptions(), weights=None,
     if getattr(mm, "warm_radius", options.warm_radius) != options.warm_radius:
         raise ValueError(f"the measurement model's warm_radius ({mm.warm_radius}) is not the options' "
                          f"({options.warm_radius}): build it with MeasurementModel.from_problem")
+    if getattr(mm, "reduced_snapshots", options.reduced_snapshots) != options.reduced_snapshots:
+        raise ValueError(f"the measurement model's reduced_snapshots ({mm.reduced_snapshots}) is not the "
+                         f"options' ({options.reduced_snapshots}): build it with MeasurementModel.from_problem")
     target = np.asarray(target, float)
     w = np.ones_like(target) if weights is None else np.asarray(weights, float)
     refusal = too_few_weighted(w, len(initial))

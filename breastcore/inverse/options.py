@@ -61,10 +61,11 @@ class IdentificationOptions:
         starts between different Λ off, and with them the branch check.
     reduced_snapshots : int
         n > 0: start a solve beyond ``warm_radius`` from the energy's minimiser over the span of
-        the displacements of the last n remembered equilibria, not cold; 0 (default): cold.
-        (:func:`~breastcore.forward.reduced.reduced_start`; the branch check then compares the
-        estimate with a cold solve.) Opt-in (issue #21): it can change which equilibrium a
-        far trial point reaches.
+        the displacements of the last n remembered equilibria, not cold; 0: cold, the method
+        before issue #21. Default 8. (:func:`~breastcore.forward.reduced.reduced_start`; the
+        branch check then compares the estimate with a cold solve.) Like any start, it can
+        change which equilibrium a far trial point reaches; the branch check guards the
+        estimate.
     """
 
     method: str = "lm"
@@ -80,7 +81,7 @@ class IdentificationOptions:
     initial_trust_radius: float = 0.5
     fixed_iterations: bool = False
     warm_radius: float = 0.05
-    reduced_snapshots: int = 0
+    reduced_snapshots: int = 8
 
     def __post_init__(self):
         if self.method not in ("lm", "gauss-newton"):

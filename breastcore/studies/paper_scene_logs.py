@@ -42,7 +42,8 @@ from breastcore.pipeline.logs import benchmark_seconds
 from breastcore.report.text_table import header, print_table
 
 STEP = re.compile(r"breastcore\.forward(?:\.continuation)?: (\S+): step t=(\S+) load=\S+ δ=\S+: (.*) in \d+ iterations")
-CONVERGED = re.compile(r"breastcore\.forward(?:\.continuation)?: (\S+): converged in (\d+) iterations \((\d+) continuation")
+CONVERGED = re.compile(r"breastcore\.forward(?:\.continuation)?: (\S+): converged in (\d+) iterations \((\d+) continuation"
+                       r" steps(?:, (cold|warm|warm fallback) start)?")
 GAVE_UP = re.compile(r"forward solve failed \((\S+): ")
 MODIFIED = re.compile(r"newton it=.* mode=(?:project|shift) ")
 FIRST_ITERATE = re.compile(r": identify it=0 ")
@@ -87,7 +88,10 @@ def solve_kinds(log: Path, cap: int = SolverOptions().max_final_attempts):
                 failed_at[posture].append(_time(line))
         elif m := CONVERGED.search(line):
             posture, its, steps = m.group(1), int(m.group(2)), int(m.group(3))
-            kind = "warm" if steps == 1 else "cold" if first_t.get(posture, 9.0) <= 1.0 else "warm fallback"
+            # Logs since the start kind was written say it; older ones (every solve then had a
+            # δ phase) tell it from the continuation: one step is warm, a start at t ≤ 1 cold.
+            kind = m.group(4) or ("warm" if steps == 1 else "cold" if first_t.get(posture, 9.0) <= 1.0
+                                  else "warm fallback")
             iterations[kind] += its
             counts[kind] += 1
             outcomes[("converged", final_failures.pop(posture, 0))] += 1

@@ -16,8 +16,10 @@ Usage::
                                                       [--deltas 1e-4 1e-5 1e-6 1e-7]
     python -m breastcore.studies.smoothing_dependence --quick    # coarse only
 
-Every solve is a cold solve of the workflow (gravity ramp at ``smoothing_start`` = 1e-4 m,
-then δ lowered by continuation); at δ ≥ 1e-4 m there is no δ phase.
+Every solve is a cold solve of the workflow's solver: the gravity ramp at ``smoothing_start``
+(default 1e-6 m), then δ lowered by continuation where the target is smaller (δ = 1e-7 m);
+at δ ≥ ``smoothing_start`` there is no δ phase. (The figures in docs/benchmarks.md were
+measured with ``smoothing_start`` = 1e-4 m, the default then.)
 """
 
 from __future__ import annotations

@@ -1,3 +1,4 @@
+import dataclasses
 """Forward solves: equilibrium recomputed from the saved dataset, warm starts,
 the CG baseline at the same tolerance, and typed failures with diagnostics."""
 
@@ -81,8 +82,9 @@ def test_failure_raises_typed_error_with_diagnostics(coarse):
 @pytest.mark.parametrize("attempts", [1, 3])
 def test_unreachable_tolerance_gives_up_after_max_final_attempts(coarse, attempts):
     # rtol 1e-20 is below the gradient's round-off floor: every final step stagnates,
-    # while the intermediate steps (stage_rtol) converge.
-    model = ForwardModel(coarse, SolverOptions(rtol=1e-20, max_final_attempts=attempts))
+    # while the intermediate steps (stage_rtol) converge. The final step is a δ step only
+    # with a δ phase: the gravity ramp at smoothing_start = 1e-4 m above the target 1e-6 m.
+    model = ForwardModel(coarse, SolverOptions(rtol=1e-20, max_final_attempts=attempts, smoothing_start=1e-4))
     with pytest.raises(SolveError) as info:
         model.solve(Parameters(), Posture("bent45", 45.0))
     err = info.value
@@ -152,3 +154,23 @@ def test_the_tolerance_is_rtol_times_the_problems_gravity_load_to_the_bit(coarse
             load = np.linalg.norm(model.problem(params, posture).gravity.load)
             assert load == np.linalg.norm(fresh.load)
             assert model.tolerance(params, posture) == model.options.rtol * load
+
+
+def test_without_a_delta_phase_a_failed_warm_start_falls_back_to_the_cold_solve(coarse, monkeypatch):
+    """With δ = smoothing_start there is no δ to continue in from the start: the fallback is the
+    cold continuation (re-solving the target from the same start would fail the same way)."""
+    from breastcore.forward import continuation
+    model = ForwardModel(coarse)
+    params, posture = Parameters(), Posture("bent45", 45.0)
+    assert params.smoothing >= model.options.smoothing_start
+    cold = model.solve(params, posture)
+    attempt = continuation._direct_attempt
+
+    def failing(*args):
+        problem, result, t, x = attempt(*args)
+        return problem, dataclasses.replace(result, success=False, message="iteration limit"), t, x
+    monkeypatch.setattr(continuation, "_direct_attempt", failing)
+    fallback = model.solve(params, posture, start=cold.position)
+    assert fallback.continuation_steps == 1 + cold.continuation_steps
+    assert fallback.gradient_norm <= fallback.tolerance
+    assert np.array_equal(fallback.position, cold.position)

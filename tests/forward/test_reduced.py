@@ -4,6 +4,7 @@ import numpy as np
 import pytest
 
 from breastcore.forward.model import ForwardModel
+from breastcore.forward.options import SolverOptions
 from breastcore.forward.reduced import reduced_start
 from breastcore.inverse.identify import identify
 from breastcore.inverse.operator import MeasurementModel
@@ -34,19 +35,28 @@ def test_an_equilibrium_in_the_span_is_recovered(model):
     assert np.abs(x2 - solution.position).max() <= 1e-5 * scale
 
 
-def test_a_far_solve_from_the_reduced_start_is_shorter_and_lands_on_the_cold_equilibrium(model):
-    """From snapshots 20-30 % away, Newton needs fewer iterations than the cold solve, to the same point."""
-    posture = paper_postures()[1]
-    snapshots = []
-    for factor in (0.8, 1.25):
-        p = Parameters().with_identified(TRUTH * factor)
-        snapshots.append(model.solve(p, posture).position - model.reference(p.R, p.H))
-    target = Parameters().with_identified(TRUTH * np.array([1.0, 0.95, 1.2, 0.9, 1.1, 1.05]))
-    cold = model.solve(target, posture)
-    start = reduced_start(model, target, posture, snapshots)
-    warm = model.solve(target, posture, start)
-    assert warm.iterations < cold.iterations
-    assert np.abs(warm.position - cold.position).max() <= 1e-8
+def test_a_far_solve_from_the_reduced_start_starts_closer_and_lands_on_the_cold_equilibrium(model):
+    """From snapshots 20-30 % away, the reduced start is nearer the equilibrium than the reference
+    state (the cold start) and than either snapshot's displacement, and Newton goes from it to
+    the cold solve's equilibrium. (Iterations are no measure on coarse: at c = 500 Pa without a
+    δ phase its cold solves take one load step of ~10 Newton iterations.)"""
+    for posture in paper_postures():
+        snapshots = []
+        for factor in (0.8, 1.25):
+            p = Parameters().with_identified(TRUTH * factor)
+            snapshots.append(model.solve(p, posture).position - model.reference(p.R, p.H))
+        target = Parameters().with_identified(TRUTH * np.array([1.0, 0.95, 1.2, 0.9, 1.1, 1.05]))
+        cold = model.solve(target, posture)
+        reference = model.reference(target.R, target.H)
+
+        def distance(x):
+            return np.abs(x - cold.position).max()
+        start = reduced_start(model, target, posture, snapshots)
+        assert distance(start) < 0.5 * min(distance(reference + u) for u in snapshots)
+        assert distance(start) < 0.1 * distance(reference)
+        warm = model.solve(target, posture, start)
+        assert warm.continuation_steps == 1                      # the direct attempt converged
+        assert distance(warm.position) <= 1e-8
 
 
 def test_identification_with_reduced_starts_recovers_the_truth_and_checks_its_branch(model, monkeypatch):
