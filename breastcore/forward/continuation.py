@@ -106,11 +106,10 @@ def solve_posture(model, params: Parameters, posture: Posture, start=None) -> Po
     kind = "cold"
     if start is not None:
         problem, result, t, x = _direct_attempt(model, params, posture, start, reference, tolerance, delta_start)
-        kind = "warm"
         if result is not None:
             iterations, steps = result.iterations, 1
             if result.success:
-                return _finish(model, problem, result, posture, iterations, steps, tic, kind)
+                return _finish(model, problem, result, posture, iterations, steps, tic, "warm")
         kind = "warm fallback"
         if decades == 0:
             # No δ phase to continue in from the start: re-solving the same target problem from

@@ -20,6 +20,7 @@ from breastcore.fem.terms import BulkNeoHookean, SkinMembrane, modulus_gradient
 from breastcore.forward.model import ForwardModel
 from breastcore.forward.reduced import reduced_start
 from breastcore.inverse.measurements import QUANTITIES, measure
+from breastcore.inverse.options import IdentificationOptions
 from breastcore.inverse.warm_start import WarmStarts
 from breastcore.model.parameters import IDENTIFIED, Parameters
 
@@ -56,14 +57,15 @@ class MeasurementModel:
         Worth it from the thin mesh up: each call forks and redoes the symbolic
         factorisation (~0.1 s on ultra-thin), against 1-7 s for a posture.
     reduced_snapshots : int
-        0: solves beyond ``warm_radius`` are cold. n > 0 (default 8, as
-        :class:`~breastcore.inverse.options.IdentificationOptions`): they start from
+        0: solves beyond ``warm_radius`` are cold. n > 0 (default: that of
+        :class:`~breastcore.inverse.options.IdentificationOptions`, 8): they start from
         :func:`~breastcore.forward.reduced.reduced_start` over the last n remembered
         equilibria of the :class:`WarmStarts` passed in (cold while it has none).
     """
 
     def __init__(self, model: ForwardModel, base: Parameters, postures, measurement_set="paper15",
-                 warm_radius=0.05, processes=1, reduced_snapshots=8):
+                 warm_radius=IdentificationOptions.warm_radius, processes=1,
+                 reduced_snapshots=IdentificationOptions.reduced_snapshots):
         self.model = model
         self.base = base
         self.postures = tuple(postures)

@@ -1,6 +1,7 @@
-import dataclasses
 """Forward solves: equilibrium recomputed from the saved dataset, warm starts,
 the CG baseline at the same tolerance, and typed failures with diagnostics."""
+
+import dataclasses
 
 import numpy as np
 import pytest
