@@ -9,7 +9,8 @@ from breastcore.cli.options import UsageError, dataset_file
 
 _KEY_NUMBERS = {
     "mesh": ["reference_position", "tetrahedra"],
-    "solve": ["newton_iterations", "gradient_norm", "tolerance", "converged", "min_det_F", "wall_time"],
+    "solve": ["newton_iterations", "gradient_norm", "tolerance", "converged", "min_det_F", "torso_penetration",
+              "wall_time"],
     "measure": ["measurement"],
     "identify": ["estimate", "interval_low", "interval_high", "determined", "relative_error", "cost",
                  "singular_values"],
@@ -21,7 +22,7 @@ _KEY_NUMBERS = {
 }
 #: Key numbers of scene summaries whose kind has its own (the others use the "scene" list).
 _SCENE_KEY_NUMBERS = {
-    "patient": ["newton_iterations", "min_det_F", "max_stretch"],     # after the clinical block
+    "patient": ["newton_iterations", "min_det_F", "max_stretch", "torso_penetration"],    # after the clinical block
     "calibration": ["table2_residual", "paper_table2_residual", "passed", "measurement_difference",
                     "sliding_difference", "identification_error"],
 }

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import sys
+
 from breastcore.cli.options import (
     add_mesh_options,
     add_parameter_options,
@@ -48,8 +50,11 @@ def run(args):
     model = problem.forward_model(mesh)
     solutions = solve_postures(model, params, problem.postures)
     shown = model.mesh_at(params)
-    write_netcdf(solution_dataset(shown, problem, solutions, mesh_level=level), args.out)
+    ds = solution_dataset(shown, problem, solutions, mesh_level=level)
+    write_netcdf(ds, args.out)
     for s in solutions:
         print(f"{s.posture.name:>10s}: {s.iterations:3d} iterations, |g| = {s.gradient_norm:.2e} N "
               f"(tol {s.tolerance:.2e}), {s.wall_time:.2f} s")
     print(f"wrote {args.out}")
+    if ds.attrs["regime_warning"]:
+        print(f"breastcore solve: warning: {ds.attrs['regime_warning']}", file=sys.stderr)

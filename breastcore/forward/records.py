@@ -7,6 +7,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from breastcore.model.postures import Posture
+from breastcore.model.torso import torso_penetration
 
 
 class SolveError(RuntimeError):
@@ -83,3 +84,8 @@ class PostureSolution:
         that escape keeps it (a neutral direction, or a failed last round).
         """
         return -1 if self.negative_pivots is None else int(self.negative_pivots)
+
+    @property
+    def torso_penetration(self) -> float:
+        """Largest depth of a node behind the torso plane y = 0, m (see breastcore.model.torso)."""
+        return torso_penetration(self.position)

@@ -17,9 +17,9 @@ from breastcore.inverse.uncertainty import (
 )
 from breastcore.inverse.verdict import fit_verdict
 from breastcore.io.datasets import _var, mesh_coords, mesh_variables, provenance
-from breastcore.io.solution import DIAGNOSTICS
+from breastcore.io.solution import DIAGNOSTICS, shape_warning
 from breastcore.model.parameters import IDENTIFIED, PARAMETER_INFO
-from breastcore.model.sliding import REGIME_MARGIN, regime_warning, sliding_margin
+from breastcore.model.sliding import REGIME_MARGIN, sliding_margin
 
 _PARAM_UNITS = " ".join(PARAMETER_INFO[p].units for p in IDENTIFIED)
 
@@ -88,7 +88,7 @@ def identification_dataset(result, mm, target, problem, *, initial, truth=None, 
                           iterations=result.iterations, verdict=verdict.verdict, verdict_message=verdict.message,
                           fit_statistic=verdict.statistic, fit_threshold=verdict.threshold, fit_dof=verdict.dof,
                           worst_measurements=[name for name, _ in verdict.worst], input_notes=list(target.notes),
-                          regime_warning=regime_warning(params),
+                          regime_warning=shape_warning(params, [result.solutions[p] for p in postures]),
                           model_mesh={"R": mm.model.mesh.R, "H": mm.model.mesh.H},
                           title="breastcore parameter identification", **problem.attrs())
     return ds

@@ -11,7 +11,8 @@ from breastcore.forward.records import PostureSolution
 from breastcore.io.datasets import _var, mesh_coords, mesh_from_dataset, mesh_variables, parameter_variables, provenance
 from breastcore.model.parameters import Parameters
 from breastcore.model.postures import Posture
-from breastcore.model.sliding import REGIME_MARGIN, sliding_margin
+from breastcore.model.sliding import REGIME_MARGIN, regime_warning, sliding_margin
+from breastcore.model.torso import penetration_warning
 from breastcore.problem import ProblemSpec
 
 if TYPE_CHECKING:                      # numba and PARDISO load with it: not needed to read a dataset
@@ -28,8 +29,21 @@ DIAGNOSTICS = {
     "max_stretch": ("1", "largest principal stretch over the tetrahedra"),
     "negative_eigenvalues": ("1", "negative eigenvalues of the exact Hessian at the solution "
                                   "(0: a stable minimum; -1: not known, no PARDISO inertia)"),
+    "torso_penetration": ("m", "largest depth of a node behind the torso plane y = 0 (0: none; the model "
+                               "has no chest-wall contact)"),
     "wall_time": ("s", "wall-clock time of the solve"),
 }
+
+
+def shape_warning(params: Parameters, solutions) -> str:
+    """The warnings of shapes outside the model's regime, joined by "; " (``""``: none).
+
+    The sliding margin of ``params`` (:func:`~breastcore.model.sliding.regime_warning`)
+    and the tissue behind the torso plane in each of ``solutions``
+    (:func:`~breastcore.model.torso.penetration_warning`).
+    """
+    depths = {s.posture.name: s.torso_penetration for s in solutions}
+    return "; ".join(w for w in (regime_warning(params), penetration_warning(depths)) if w)
 
 
 def solve_postures(model: ForwardModel, params: Parameters, postures, starts=None) -> list[PostureSolution]:
@@ -68,6 +82,7 @@ def solution_dataset(mesh, problem: ProblemSpec, solutions, *, mesh_level="custo
     coords["posture"] = _var(("posture",), np.array(names), "1", "posture name")
     ds = xr.Dataset(data, coords=coords)
     ds.attrs = provenance("solve", params, config_hash, mesh_level=mesh_level, solver=options.method,
+                          regime_warning=shape_warning(params, solutions),
                           title="breastcore equilibrium shapes per posture", **problem.attrs())
     return ds
 

@@ -95,6 +95,8 @@ def _study(spec):
     measurement = stack("measurement")
     converged = stack("converged").astype(bool)
     min_det = np.where(converged, stack("min_det_F"), np.nan)
+    # NaN from level datasets written before the depth was recorded
+    penetration = np.where(converged, stack("torso_penetration") if "torso_penetration" in first else np.nan, np.nan)
     ratio = measurement[:, :-1] / measurement[:, -1:] - 1.0                  # (c, level, point, posture, quantity)
     residual = np.mean(ratio[:, :, 0] ** 2, axis=(2, 3))                    # at the truth, point 0
     compare = spec["levels"].index(spec["compare_level"])
@@ -113,6 +115,7 @@ def _study(spec):
     choice = choose_chassaignac(table, **spec["criteria"])
     return SimpleNamespace(levels=levels, c_values=c_values, first=first, labels=labels, postures=postures,
                            stack=stack, measurement=measurement, converged=converged, min_det=min_det,
+                           penetration=penetration,
                            residual=residual, difference=difference, sliding=sliding, standing=standing,
                            admissible=admissible, threshold=threshold, probes=probes, jacobian=jacobian,
                            choice=choice, criteria=list(CRITERIA))
@@ -132,6 +135,9 @@ def _solve_variables(s, spec):
                         "failure diagnostics of the cold solve (empty when converged)"),
         "min_det_F": _var(("chassaignac", "level", "point", "posture"), s.min_det, "1",
                           "smallest det F of the converged cold solve (NaN unless converged)"),
+        "torso_penetration": _var(("chassaignac", "level", "point", "posture"), s.penetration, "m",
+                                  "largest depth of a node behind the torso plane y = 0 in the converged cold "
+                                  "solve (NaN unless converged, or not recorded)"),
         "iterations": _var(("chassaignac", "level", "point", "posture"), s.stack("iterations"), "1",
                            "minimiser iterations of the cold solve"),
         "wall_time": _var(("chassaignac", "level", "point", "posture"), s.stack("wall_time"), "s",

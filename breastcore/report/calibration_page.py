@@ -62,10 +62,13 @@ def calibration_table(ds) -> pd.DataFrame:
     for i, c in enumerate(ds["chassaignac"].values):
         margin = ds["sliding_margin"].values[i]
         standing = ds["standing_min_det_F"].values[i][:, admissible].reshape(-1)
+        behind = 1e3 * ds["torso_penetration"].values[i][:, admissible].max(axis=-1).reshape(-1) \
+            if "torso_penetration" in ds else np.full(len(pairs), np.nan)
         singular = ds["singular_value"].values[i]
         row = {"c (Pa)": f"{c:g}", "margin at truth": margin[0],
                "min margin": np.nanmin(margin[admissible]),
                "min standing det F (level, point)": _worst(standing, pairs, lowest=True),
+               "max depth behind torso plane, mm (level, point)": _worst(behind, pairs, lowest=False),
                "max difference (point)": _worst(ds["measurement_difference"].values[i][corners],
                                                 [labels[p] for p in corners], lowest=False),
                "max sliding difference (point)": _worst(ds["sliding_difference"].values[i][corners],
@@ -110,7 +113,9 @@ def calibration_section(name, ds) -> str:
               _markdown(residual_table(ds)), "",
               f"Per c: the sliding margin c/(ρ g V/|Γ_B|) at the truth and its minimum over the admissible corners; "
               f"the worst check of each criterion and where ((a) min det F in {a['det_F_posture']} over every level "
-              f"and point; (b) max |M_{a['compare_level']}/M_{a['reference']} − 1| over the points, and the part of it "
+              f"and point; the deepest node behind the torso plane y = 0 over every level, point and posture (not a "
+              f"criterion: the model has no chest-wall contact); (b) max |M_{a['compare_level']}/M_{a['reference']} − 1| "
+              f"over the points, and the part of it "
               f"that the back's sliding adds (criterion (b): the same minus its value at the grid's largest c); (c) the "
               f"nonlinearity of the probe on {a['probe_level']}); the singular values of the relative Jacobian on "
               f"{a['jacobian_level']}; the mean parameter error (%) of the cross-mesh identifications "

@@ -2,12 +2,16 @@
 
 from __future__ import annotations
 
+import logging
+
 from breastcore.forward.options import SolverOptions
 from breastcore.io.datasets import mesh_from_dataset, open_dataset, write_netcdf
 from breastcore.io.solution import solution_dataset, solve_postures
 from breastcore.model.parameters import Parameters
 from breastcore.model.postures import Posture
 from breastcore.problem import ProblemSpec
+
+log = logging.getLogger(__name__)
 
 
 def run_solve(spec, mesh_path, out, config_hash=None):
@@ -19,5 +23,7 @@ def run_solve(spec, mesh_path, out, config_hash=None):
     params = problem.parameters
     solutions = solve_postures(model, params, problem.postures)
     shown = model.mesh_at(params)
-    write_netcdf(solution_dataset(shown, problem, solutions, mesh_level=mesh_ds.attrs["mesh_level"],
-                                  config_hash=config_hash), out)
+    ds = solution_dataset(shown, problem, solutions, mesh_level=mesh_ds.attrs["mesh_level"], config_hash=config_hash)
+    write_netcdf(ds, out)
+    if ds.attrs["regime_warning"]:
+        log.warning("shape: %s", ds.attrs["regime_warning"])

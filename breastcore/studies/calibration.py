@@ -41,6 +41,7 @@ OUTCOMES = ("converged", "solve_error", "inadmissible", "crash")
 RECORDS = {
     "min_det_F": ("1", "smallest det F over the tetrahedra (of a failed solve: at its last admissible iterate)"),
     "max_stretch": ("1", "largest principal stretch over the tetrahedra"),
+    "torso_penetration": ("m", "largest depth of a node behind the torso plane y = 0 (0: none)"),
     "iterations": ("1", "minimiser iterations over all continuation steps"),
     "continuation_steps": ("1", "continuation steps (gravity ramp and δ decrease)"),
     "gradient_norm": ("N", "free-dof gradient norm reached"),
@@ -96,7 +97,8 @@ def cold_solve(model: ForwardModel, params, posture, measurement_set="paper15"):
     except Exception as err:  # noqa: BLE001 — the job records every point, whatever happens to one
         record["wall_time"] = time.perf_counter() - tic
         return "crash", record, values, f"{type(err).__name__}: {err}", None
-    record.update(min_det_F=solution.min_det_F, max_stretch=solution.max_stretch, iterations=solution.iterations,
+    record.update(min_det_F=solution.min_det_F, max_stretch=solution.max_stretch,
+                  torso_penetration=solution.torso_penetration, iterations=solution.iterations,
                   continuation_steps=solution.continuation_steps, gradient_norm=solution.gradient_norm,
                   tolerance=solution.tolerance, energy=solution.energy,
                   negative_eigenvalues=solution.negative_eigenvalues, load_factor=1.0,

@@ -30,6 +30,7 @@ RECORDS = {
     "min_det_F": ("1", "smallest det F"),
     "max_stretch": ("1", "largest principal stretch"),
     "energy": ("J", "energy at the end"),
+    "torso_penetration": ("m", "largest depth of a node behind the torso plane y = 0"),
     "load_factor": ("1", "gravity fraction reached"),
     "wall_time": ("s", "wall time of the case"),
 }
@@ -75,7 +76,8 @@ def run_case(model: ForwardModel, case, base=Parameters()):
         return "crash", record, f"{type(err).__name__}: {err}"
     record.update(iterations=sol.iterations, continuation_steps=sol.continuation_steps,
                   gradient_norm=sol.gradient_norm, tolerance=sol.tolerance, min_det_F=sol.min_det_F,
-                  max_stretch=sol.max_stretch, energy=sol.energy, load_factor=1.0, wall_time=sol.wall_time)
+                  max_stretch=sol.max_stretch, energy=sol.energy, torso_penetration=sol.torso_penetration,
+                  load_factor=1.0, wall_time=sol.wall_time)
     if not (np.all(np.isfinite(sol.position)) and np.isfinite([sol.energy, sol.gradient_norm]).all()):
         return "nan", record, "non-finite solution"
     problem = model.problem(params, posture)                 # independent re-evaluation of the residual

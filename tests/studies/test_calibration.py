@@ -87,6 +87,25 @@ def test_the_summary_residual_is_that_of_direct_solves(tiny_study):
         pytest.approx(100.0 / slip_threshold(Parameters()))
 
 
+def test_the_summary_and_its_table_report_the_depth_behind_the_torso_plane(tiny_study):
+    """c = 100 Pa (sliding): standing crosses the plane y = 0; the table names the deepest (level, point)."""
+    from breastcore.forward.model import ForwardModel
+    from breastcore.model.mesh import mesh_level
+    from breastcore.model.postures import parse_posture
+    from breastcore.report.calibration_page import calibration_table
+    plan, ds = tiny_study
+    solution = ForwardModel(mesh_level("medium")).solve(Parameters(chassaignac=100.0), parse_posture("standing"))
+    depth = ds["torso_penetration"].sel(chassaignac=100.0, level="medium", point="truth", posture="standing")
+    assert float(depth) == pytest.approx(solution.torso_penetration, rel=1e-9) and float(depth) > 1e-3
+    column = calibration_table(ds)["max depth behind torso plane, mm (level, point)"]
+    for i, c in enumerate(ds["chassaignac"].values):
+        deepest = ds["torso_penetration"].sel(chassaignac=c).isel(point=[0, 1]).max("posture")   # admissible
+        where = np.unravel_index(int(np.argmax(deepest.values)), deepest.shape)
+        expected = f"{1e3 * float(deepest.max()):.3g} ({deepest['level'].values[where[0]]}, " \
+                   f"{deepest['point'].values[where[1]]})"
+        assert column[i] == expected
+
+
 def test_the_summary_applies_the_rule_to_its_own_numbers(tiny_study):
     plan, ds = tiny_study
     criteria = list(ds["criterion"].values)
