@@ -17,8 +17,8 @@ _KEY_NUMBERS = {
     "sensitivity": ["linearised", "finite"],
     "stability": ["outcome", "iterations", "min_det_F"],
     "extreme": ["guess_label", "guess_outcome", "guess_max_error"],
-    "scene": ["mean_abs_error", "verdict", "wall_time", "nipple_displacement", "estimate", "interval_low",
-              "interval_high", "determined"],
+    "scene": ["mean_abs_error", "verdict", "wall_time", "nipple_displacement", "torso_penetration", "estimate",
+              "interval_low", "interval_high", "determined"],
 }
 #: Key numbers of scene summaries whose kind has its own (the others use the "scene" list).
 _SCENE_KEY_NUMBERS = {

@@ -28,11 +28,12 @@ def torso_penetration(position) -> float:
     Returns
     -------
     float
-        :math:`\max(0, -\min_i y_i)`. Nodes only: a tetrahedron whose nodes are all in
-        front of the plane lies in front of it too, as the half-space is convex.
+        :math:`\max(0, -\min_i y_i)`; NaN if a position is not finite. Nodes only: a
+        tetrahedron whose nodes are all in front of the plane lies in front of it too, as
+        the half-space is convex.
     """
     y = np.asarray(position, dtype=float)[:, 1]
-    return max(0.0, -float(y.min()))
+    return float(np.maximum(0.0, -np.min(y))) if np.all(np.isfinite(y)) else float("nan")
 
 
 def penetration_warning(depths) -> str:
@@ -41,9 +42,10 @@ def penetration_warning(depths) -> str:
     Parameters
     ----------
     depths : mapping of str to float
-        Posture name to :func:`torso_penetration` of its shape, m.
+        Posture name to :func:`torso_penetration` of its shape, m. A NaN depth (a
+        non-finite shape, which no converged solve returns) is warned too.
     """
-    over = {name: d for name, d in depths.items() if d > PENETRATION_LIMIT}
+    over = {name: d for name, d in depths.items() if not d <= PENETRATION_LIMIT}
     if not over:
         return ""
     listed = ", ".join(f"{name} {d * 1e3:.3g} mm" for name, d in over.items())

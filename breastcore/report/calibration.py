@@ -95,8 +95,10 @@ def _study(spec):
     measurement = stack("measurement")
     converged = stack("converged").astype(bool)
     min_det = np.where(converged, stack("min_det_F"), np.nan)
-    # NaN from level datasets written before the depth was recorded
-    penetration = np.where(converged, stack("torso_penetration") if "torso_penetration" in first else np.nan, np.nan)
+    # NaN from any level dataset written before the depth was recorded
+    penetration = np.where(converged, np.array([[ds["torso_penetration"].values if "torso_penetration" in ds else
+                                                 np.full(ds["converged"].shape, np.nan) for ds in row]
+                                                for row in per_level]), np.nan)
     ratio = measurement[:, :-1] / measurement[:, -1:] - 1.0                  # (c, level, point, posture, quantity)
     residual = np.mean(ratio[:, :, 0] ** 2, axis=(2, 3))                    # at the truth, point 0
     compare = spec["levels"].index(spec["compare_level"])

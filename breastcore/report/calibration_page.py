@@ -64,11 +64,12 @@ def calibration_table(ds) -> pd.DataFrame:
         standing = ds["standing_min_det_F"].values[i][:, admissible].reshape(-1)
         behind = 1e3 * ds["torso_penetration"].values[i][:, admissible].max(axis=-1).reshape(-1) \
             if "torso_penetration" in ds else np.full(len(pairs), np.nan)
+        depth = _worst(behind, pairs, lowest=False) if np.isfinite(behind).any() else "not recorded"
         singular = ds["singular_value"].values[i]
         row = {"c (Pa)": f"{c:g}", "margin at truth": margin[0],
                "min margin": np.nanmin(margin[admissible]),
                "min standing det F (level, point)": _worst(standing, pairs, lowest=True),
-               "max depth behind torso plane, mm (level, point)": _worst(behind, pairs, lowest=False),
+               "max depth behind torso plane, mm (level, point)": depth,
                "max difference (point)": _worst(ds["measurement_difference"].values[i][corners],
                                                 [labels[p] for p in corners], lowest=False),
                "max sliding difference (point)": _worst(ds["sliding_difference"].values[i][corners],

@@ -172,6 +172,8 @@ def solution_summary(path, name, kind, config_hash=None) -> xr.Dataset:
                               units, "the model's measurements at the estimate M(Λ̂) (units per quantity)")
         verdict = {k: ds.attrs[k] for k in ("verdict", "verdict_message", "worst_measurements", "input_notes",
                                             "regime_warning")}
+    elif ds.attrs.get("regime_warning"):
+        verdict = {"regime_warning": ds.attrs["regime_warning"]}          # a forward scene's shape warning
     if "sliding_margin" in ds:
         data["sliding_margin"] = ds["sliding_margin"].variable
     out = xr.Dataset(data, coords={k: ds[k].variable for k in ("posture", "xyz") if k in ds.coords}

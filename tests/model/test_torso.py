@@ -12,6 +12,8 @@ def test_penetration_is_the_deepest_node_behind_the_plane():
     x = np.array([[0.0, 0.0, 0.0], [0.01, 0.02, -0.03], [0.0, -0.0025, -0.06], [0.0, -0.001, -0.05]])
     assert torso_penetration(x) == 0.0025
     assert torso_penetration(np.abs(x)) == 0.0                   # all in front of (or on) the plane
+    x[1, 1] = np.nan
+    assert np.isnan(torso_penetration(x))                          # not "nothing behind the plane"
     with pytest.raises(IndexError):
         torso_penetration(np.zeros((3, 1)))
 
@@ -21,6 +23,7 @@ def test_the_penetration_warning_fires_above_the_limit_and_not_at_or_below():
     assert penetration_warning({"standing": 0.99 * PENETRATION_LIMIT}) == ""
     text = penetration_warning({"standing": 1.5 * PENETRATION_LIMIT, "bent45": 0.5 * PENETRATION_LIMIT})
     assert "standing 1.5 mm" in text and "bent45" not in text and "chest wall" in text
+    assert "fours nan mm" in penetration_warning({"fours": float("nan")})
 
 
 def test_a_solve_behind_the_plane_is_recorded_and_warned(tmp_path, caplog):
@@ -35,6 +38,7 @@ def test_a_solve_behind_the_plane_is_recorded_and_warned(tmp_path, caplog):
     from breastcore.io.datasets import mesh_dataset, write_netcdf
     from breastcore.model.mesh import mesh_level
     from breastcore.model.parameters import Parameters
+    from breastcore.report.summaries import solution_summary
     from breastcore.stages.solve import run_solve
 
     mesh = mesh_level("medium")
@@ -54,4 +58,8 @@ def test_a_solve_behind_the_plane_is_recorded_and_warned(tmp_path, caplog):
             assert (standing > PENETRATION_LIMIT) == warned, standing
             assert ("tissue behind the torso plane" in ds.attrs["regime_warning"]) == warned
             assert ("WARNING: " in describe(ds)) == warned
+        summary = solution_summary(out, "fwd", "forward")                  # the forward scene's summary
+        assert ("tissue behind the torso plane" in summary.attrs.get("regime_warning", "")) == warned
+        assert float(summary["torso_penetration"].sel(posture="standing")) == standing
+        assert ("WARNING: " in describe(summary)) == warned
         assert any("behind the torso plane" in r.getMessage() for r in caplog.records) == warned

@@ -104,6 +104,8 @@ def test_the_summary_and_its_table_report_the_depth_behind_the_torso_plane(tiny_
         expected = f"{1e3 * float(deepest.max()):.3g} ({deepest['level'].values[where[0]]}, " \
                    f"{deepest['point'].values[where[1]]})"
         assert column[i] == expected
+    unrecorded = calibration_table(ds.drop_vars("torso_penetration"))     # a summary of older level datasets
+    assert set(unrecorded["max depth behind torso plane, mm (level, point)"]) == {"not recorded"}
 
 
 def test_the_summary_applies_the_rule_to_its_own_numbers(tiny_study):
