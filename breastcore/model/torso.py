@@ -33,7 +33,10 @@ def torso_penetration(position) -> float:
         the half-space is convex.
     """
     y = np.asarray(position, dtype=float)[:, 1]
-    return float(np.maximum(0.0, -np.min(y))) if np.all(np.isfinite(y)) else float("nan")
+    if not np.all(np.isfinite(y)):
+        return float("nan")
+    depth = -float(y.min())
+    return depth if depth > 0.0 else 0.0                  # +0.0, not the -0.0 of a node on the plane
 
 
 def penetration_warning(depths) -> str:

@@ -12,6 +12,7 @@ def test_penetration_is_the_deepest_node_behind_the_plane():
     x = np.array([[0.0, 0.0, 0.0], [0.01, 0.02, -0.03], [0.0, -0.0025, -0.06], [0.0, -0.001, -0.05]])
     assert torso_penetration(x) == 0.0025
     assert torso_penetration(np.abs(x)) == 0.0                   # all in front of (or on) the plane
+    assert not np.signbit(torso_penetration(np.abs(x)))           # 0, not -0 (a node on the plane)
     x[1, 1] = np.nan
     assert np.isnan(torso_penetration(x))                          # not "nothing behind the plane"
     with pytest.raises(IndexError):
