@@ -31,7 +31,8 @@ from _common import fit_exponent, fmt, header, print_table, run_python, timed, v
 
 LEVELS = ["coarse", "medium", "medium-thin", "thin", "very-thin", "ultra-thin", "reference"]
 QUICK_LEVELS = ["coarse", "medium", "thin", "ultra-thin"]
-TARGETS = {"cold3": 5.0, "warm": 0.5, "ratio": 30.0, "fine_time": 120.0, "fine_mem_gb": 4.0}
+#: Issue #2's goals, but fine50k's time per cold posture, which issue #21 lowers from 120 s to 60 s.
+TARGETS = {"cold3": 5.0, "warm": 0.5, "ratio": 30.0, "fine_time": 60.0, "fine_mem_gb": 4.0}
 
 _CHILD = """
 import json, time
