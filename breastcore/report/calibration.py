@@ -89,16 +89,16 @@ def _study(spec):
     labels = [str(v) for v in first["point"].values]
     postures = [str(v) for v in first["posture"].values]
 
-    def stack(variable):
-        return np.array([[ds[variable].values for ds in row] for row in per_level])   # (c, level, point, posture...)
+    def stack(variable, missing=None):
+        """(c, level, point, posture...) of ``variable``; ``missing`` fills a dataset that lacks it, if given."""
+        return np.array([[ds[variable].values if missing is None or variable in ds else
+                          np.full(ds["converged"].shape, missing) for ds in row] for row in per_level])
 
     measurement = stack("measurement")
     converged = stack("converged").astype(bool)
     min_det = np.where(converged, stack("min_det_F"), np.nan)
     # NaN from any level dataset written before the depth was recorded
-    penetration = np.where(converged, np.array([[ds["torso_penetration"].values if "torso_penetration" in ds else
-                                                 np.full(ds["converged"].shape, np.nan) for ds in row]
-                                                for row in per_level]), np.nan)
+    penetration = np.where(converged, stack("torso_penetration", missing=np.nan), np.nan)
     ratio = measurement[:, :-1] / measurement[:, -1:] - 1.0                  # (c, level, point, posture, quantity)
     residual = np.mean(ratio[:, :, 0] ** 2, axis=(2, 3))                    # at the truth, point 0
     compare = spec["levels"].index(spec["compare_level"])

@@ -108,6 +108,24 @@ def test_the_summary_and_its_table_report_the_depth_behind_the_torso_plane(tiny_
     assert set(unrecorded["max depth behind torso plane, mm (level, point)"]) == {"not recorded"}
 
 
+def test_a_level_dataset_without_the_depth_reads_nan_there_only(tiny_study, tmp_path):
+    """Level datasets written before the depth was recorded: NaN in their cells, the others kept."""
+    import xarray as xr
+
+    from breastcore.io.datasets import write_netcdf
+    from breastcore.report.calibration import calibration_summary
+    plan, ds = tiny_study
+    spec = copy.deepcopy(plan.scene("cal"))
+    case = next(k for k, c in enumerate(spec["cases"]) if c["chassaignac"] == 100.0)
+    with xr.open_dataset(spec["cases"][case]["levels"]["coarse"]) as old:
+        older = old.load().drop_vars("torso_penetration")
+    spec["cases"][case]["levels"]["coarse"] = str(write_netcdf(older, tmp_path / "older.nc"))
+    depth = calibration_summary(spec, "cal")["torso_penetration"]
+    assert np.isnan(depth.sel(chassaignac=100.0, level="coarse")).all()
+    np.testing.assert_array_equal(depth.sel(chassaignac=100.0, level="medium"),
+                                  ds["torso_penetration"].sel(chassaignac=100.0, level="medium"))
+
+
 def test_the_summary_applies_the_rule_to_its_own_numbers(tiny_study):
     plan, ds = tiny_study
     criteria = list(ds["criterion"].values)
