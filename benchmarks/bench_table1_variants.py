@@ -15,8 +15,8 @@ other, so that a drift of the machine falls on all of them. A variant sets
 :class:`~breastcore.forward.options.SolverOptions` keys in the job's solver spec, for the
 identification's forward solves only (the truth is the workflow's):
 
-Every variant spells out all four settings (``smoothing_start``, ``reuse_factor``, the smoothing δ,
-``reduced_snapshots``), so that its meaning does not move with the shipped defaults:
+Every variant spells out all six settings (``smoothing_start``, ``reuse_factor``, ``sliding_dual``,
+``inertia_shift``, the smoothing δ, ``reduced_snapshots``), so that its meaning does not move with the shipped defaults:
 
 - ``default``: today's path (no δ phase, chord steps 0.5, reduced starts over 8 snapshots);
 - ``before-21``: the path before issue #21: the gravity ramp at δ = 1e-4 m then a δ
@@ -34,7 +34,10 @@ Every variant spells out all four settings (``smoothing_start``, ``reuse_factor`
   or 8: trial points beyond the warm radius start from the energy's minimiser over the span of
   the last 4 or 8 accepted equilibria's displacements
   (:func:`breastcore.forward.reduced.reduced_start`) instead of cold;
-  ``reduced8+no-delta-phase+chord0.5`` is ``default``.
+  ``reduced8+no-delta-phase+chord0.5`` is ``default``;
+- ``dual``, ``shift``, ``dual+shift``: ``default`` with ``SolverOptions.sliding_dual`` (primal-dual
+  Chassaignac blocks in Newton's step matrix), ``inertia_shift`` (a diagonal shift to positive
+  definiteness before the PSD projection), or both.
 
 The first variant of ``--variants`` is the reference (default: ``before-21``).
 Per job it prints the time, LM iterations, forward solves, the mean |estimate/truth − 1|
@@ -63,8 +66,8 @@ from breastcore.io.datasets import open_dataset  # noqa: E402
 from breastcore.stages.identify import run_identify  # noqa: E402
 
 #: The solver settings before issue #21, and today's.
-BEFORE = {"smoothing_start": 1e-4, "reuse_factor": 0.0}
-NEW = {"smoothing_start": 1e-6, "reuse_factor": 0.5}
+BEFORE = {"smoothing_start": 1e-4, "reuse_factor": 0.0, "sliding_dual": False, "inertia_shift": False}
+NEW = {"smoothing_start": 1e-6, "reuse_factor": 0.5, "sliding_dual": False, "inertia_shift": False}
 COLD = {"reduced_snapshots": 0}
 #: Variant name → (SolverOptions keys, model constants, IdentificationOptions keys) of the identification.
 VARIANTS = {
@@ -78,6 +81,9 @@ VARIANTS = {
     "reduced4": (BEFORE, {}, {"reduced_snapshots": 4}),
     "reduced8": (BEFORE, {}, {"reduced_snapshots": 8}),
     "reduced8+no-delta-phase+chord0.5": (NEW, {}, {"reduced_snapshots": 8}),
+    "dual": ({**NEW, "sliding_dual": True}, {}, {"reduced_snapshots": 8}),
+    "shift": ({**NEW, "inertia_shift": True}, {}, {"reduced_snapshots": 8}),
+    "dual+shift": ({**NEW, "sliding_dual": True, "inertia_shift": True}, {}, {"reduced_snapshots": 8}),
 }
 SCENES = {"cross": "paper_table1", "same": "paper_table1_same"}
 

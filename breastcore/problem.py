@@ -151,7 +151,8 @@ class ProblemSpec:
 #: Fields added to a spec dataclass after datasets were written without them, with the value
 #: that reproduces what those datasets were computed with (not a default: the method of then).
 #: ``reuse_factor`` 0: a fresh factorisation every Newton iteration, the only method before issue #21.
-ADDED_FIELDS = {"SolverOptions": {"reuse_factor": 0.0}}
+#: ``sliding_dual``, ``inertia_shift`` False: exact-Hessian steps and the PSD projection, the method before them.
+ADDED_FIELDS = {"SolverOptions": {"reuse_factor": 0.0, "sliding_dual": False, "inertia_shift": False}}
 
 
 def _exact(kind, values) -> dict:

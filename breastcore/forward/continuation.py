@@ -39,7 +39,8 @@ def _cg_minimiser(model):
 def _minimise(model, problem, z, tolerance):
     if model.options.method == "cg":
         return _cg_minimiser(model)(problem, z, tolerance)
-    result = newton(problem, z, tolerance, model.options.max_iterations, reuse=model.options.reuse_factor)
+    result = newton(problem, z, tolerance, model.options.max_iterations, reuse=model.options.reuse_factor,
+                    inertia_shift=model.options.inertia_shift)
     if result.success and result.negative_pivots:                  # an unstable equilibrium: leave it
         return escape_saddle(problem, result, model.options.max_iterations)
     iterations, factorizations = result.iterations, result.factorizations
@@ -52,7 +53,8 @@ def _minimise(model, problem, z, tolerance):
         z = result.x
         log.debug("iteration limit with the energy still falling (%.6e → %.6e): continuing", start_energy,
                   result.energy)
-        result = newton(problem, z, tolerance, model.options.max_iterations, reuse=model.options.reuse_factor)
+        result = newton(problem, z, tolerance, model.options.max_iterations, reuse=model.options.reuse_factor,
+                    inertia_shift=model.options.inertia_shift)
         iterations += result.iterations
         factorizations += result.factorizations
     if iterations == result.iterations:

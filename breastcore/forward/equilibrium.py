@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from breastcore.fem.sliding_dual import SlidingDual
 from breastcore.fem.terms import Composite
 from breastcore.model.parameters import Parameters
 
@@ -13,13 +14,15 @@ class EquilibriumProblem:
     """``J_h`` on the free dofs for one parameter set, gravity vector and δ, on the mesh of ``model``
     (a :class:`~breastcore.forward.model.ForwardModel`)."""
 
-    def __init__(self, model, params: Parameters, acceleration, smoothing):
+    def __init__(self, model, params: Parameters, acceleration, smoothing, sliding_dual=False):
         self.model = model
         self.reference = model.reference(params.R, params.H)
         self.assembler = model.assembler(params.fold_angle)
         bulk, skin, gravity, sliding = model.energy_terms(params, acceleration, smoothing)
         self.bulk, self.gravity = bulk, gravity
         self.energy = Composite([bulk, skin, gravity, sliding])
+        #: The Chassaignac dual state of the Newton steps (None: steps with the exact Hessian).
+        self.sliding_dual = SlidingDual(sliding) if sliding_dual else None
         load = float(np.linalg.norm(self.gravity.load))
         self.energy_scale = max(load, 1e-30) * params.R
         self.length_scale = params.R
@@ -39,6 +42,16 @@ class EquilibriumProblem:
 
     def hessian(self, z, project=False):
         return self.assembler.assemble_terms(self.energy.nonlinear_terms, self.full(z), project)
+
+    def step_hessian(self, z, project=False):
+        """The matrix of Newton's steps: :meth:`hessian`, with the primal-dual sliding blocks of
+        :class:`~breastcore.fem.sliding_dual.SlidingDual` if ``sliding_dual`` (its dual state
+        moves to ``z``). It equals :meth:`hessian` at an equilibrium reached by such steps only
+        to the solve's tolerance: Jacobians and inertia checks use :meth:`hessian`."""
+        if self.sliding_dual is None:
+            return self.hessian(z, project)
+        terms = self.energy.nonlinear_terms[:-1] + (self.sliding_dual,)
+        return self.assembler.assemble_terms(terms, self.full(z), project)
 
     @property
     def pattern(self):

@@ -4,6 +4,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+import numpy as np
+
 
 @dataclass(frozen=True)
 class SolverOptions:
@@ -40,6 +42,15 @@ class SolverOptions:
         last factorised Hessian is reused while the gradient norm falls to at most this
         fraction per iteration. Default 0.5. 0: a fresh factorisation every iteration, the
         method before issue #21 (kept selectable for the benchmarks).
+    sliding_dual : bool
+        Newton steps with the primal-dual sliding blocks of
+        :class:`~breastcore.fem.sliding_dual.SlidingDual` (Chan-Golub-Mulet) instead of the
+        exact Hessian's. The energy and the tolerance are unchanged; back nodes that go from
+        sticking to slipping take fewer steps. False: the exact Hessian (the method before).
+    inertia_shift : bool
+        Newton's indefinite steps (:func:`~breastcore.nonlinear.newton.newton`'s
+        ``inertia_shift``): a diagonal shift just large enough for a positive-definite
+        step matrix, before the PSD projection. False: the projection (the method before).
     max_final_attempts : int
         The final δ step (full gravity, target δ, full tolerance) may fail this many
         times, each from a different converged neighbour, before the solve raises.
@@ -63,6 +74,8 @@ class SolverOptions:
     max_extensions: int = 4
     max_final_attempts: int = 3
     reuse_factor: float = 0.5
+    sliding_dual: bool = False
+    inertia_shift: bool = False
 
     def __post_init__(self):
         if self.method not in ("newton", "cg"):
@@ -72,5 +85,8 @@ class SolverOptions:
                 raise ValueError(f"solver option {name} must be > 0")
         if not 0.0 <= self.reuse_factor < 1.0:
             raise ValueError("solver option reuse_factor must be in [0, 1)")
+        for name in ("sliding_dual", "inertia_shift"):
+            if not isinstance(getattr(self, name), (bool, np.bool_)):
+                raise ValueError(f"solver option {name} must be true or false, got {getattr(self, name)!r}")
         if int(self.max_final_attempts) < 1:
             raise ValueError("solver option max_final_attempts must be ≥ 1")

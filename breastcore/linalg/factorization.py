@@ -137,7 +137,8 @@ class Factorization:
 
 
 def shift_diagonal(K, sigma):
-    """``K + σI`` with the sparsity structure of ``K`` (CSR, every diagonal entry stored).
+    """``K + σI`` (σ a float, or an ``(n,)`` array for ``K + diag(σ)``) with the sparsity structure
+    of ``K`` (CSR, every diagonal entry stored).
 
     ``K + σ * identity`` would drop ``K``'s explicit zeros, and the result would
     no longer match ``K``'s :class:`SymmetricPattern` (a new symbolic analysis,
@@ -148,7 +149,7 @@ def shift_diagonal(K, sigma):
     rows = np.repeat(np.arange(K.shape[0]), np.diff(K.indptr))
     diagonal = np.flatnonzero(K.indices == rows)
     if diagonal.size != K.shape[0]:
-        return (K + sigma * sp.identity(K.shape[0], format="csr")).tocsr()
+        return (K + sp.diags(np.broadcast_to(sigma, K.shape[0]), format="csr")).tocsr()
     shifted = K.copy()
     shifted.data[diagonal] += sigma
     return shifted

@@ -16,7 +16,17 @@ Hessian (a chord step) while the gradient norm keeps falling fast enough. On ult
 such an iteration costs a gradient and a triangular solve, ~10 ms, against ~60 ms for an
 assembly and a factorisation; but chord steps contract less, and on ultra-thin cold solves
 took 0.69-1.10× the time, standing the slowest, and ended at another of the standing
-posture's minima at one of five points (docs/benchmarks.md, "Speed"), so the default stays 0.
+posture's minima at one of five points (docs/benchmarks.md, "Speed"). So ``reuse`` defaults to 0
+here; the forward solves use ``SolverOptions.reuse_factor`` (0.5), measured on the path without a
+δ phase.
+
+The step matrix is ``problem.step_hessian(z, project)`` where the problem has one (e.g. with
+the primal-dual sliding blocks of :class:`~breastcore.fem.sliding_dual.SlidingDual`), else
+``problem.hessian``. With ``inertia_shift``, an indefinite step matrix ``K`` is first replaced
+by ``K + σ |diag K|`` for σ in :data:`INERTIA_SHIFTS`, the first whose factor has no negative
+pivot: the PSD projection stiffens every skin and bulk block, so its steps along a soft mode
+are far too short (the line search then doubles them up to 2¹⁰), while a shift just large
+enough for positive definiteness keeps the rest of the curvature.
 """
 
 from __future__ import annotations
@@ -105,7 +115,11 @@ def _stagnated(history, energies, scale):
     return flat and min(history[-w:]) > 0.9 * best_before
 
 
-def newton(problem, z0, tolerance, max_iterations=50, avoid_saddles=False, reuse=0.0):
+#: Relative diagonal shifts ``σ`` tried, in order, by ``inertia_shift`` steps: ``K + σ |diag K|``.
+INERTIA_SHIFTS = (1e-2, 1e-1)
+
+
+def newton(problem, z0, tolerance, max_iterations=50, avoid_saddles=False, reuse=0.0, inertia_shift=False):
     """Minimise ``problem`` from ``z0`` until the gradient norm is at most ``tolerance``.
 
     Parameters
@@ -133,6 +147,10 @@ def newton(problem, z0, tolerance, max_iterations=50, avoid_saddles=False, reuse
         (no new Hessian) and the line search is tried on it; a failed chord step falls
         back to a fresh factorisation in the same iteration. 0 (default): a fresh
         factorisation every iteration (the method before issue #21).
+    inertia_shift : bool
+        Where the step matrix has negative pivots (or gives no descent), first try the
+        shifts of :data:`INERTIA_SHIFTS` (module notes), then the PSD projection. False
+        (default): the projection directly (the method before). Needs PARDISO's inertia.
 
     Returns
     -------
@@ -171,7 +189,8 @@ def newton(problem, z0, tolerance, max_iterations=50, avoid_saddles=False, reuse
         if kept is not None and g_norm <= reuse * history[-2]:
             accepted = _chord_step(problem, kept, z, energy, g, g_norm)
         if accepted is None:                                         # a fresh factor (and no chord)
-            accepted, mode, factor, tried = _fresh_step(problem, z, energy, g, g_norm, pattern, avoid_saddles)
+            accepted, mode, factor, tried = _fresh_step(problem, z, energy, g, g_norm, pattern, avoid_saddles,
+                                                        inertia_shift)
             factorizations += tried
             inertia = None if factor is None else factor.negative_pivots
             projected += accepted is not None and mode != "exact"
@@ -187,29 +206,46 @@ def newton(problem, z0, tolerance, max_iterations=50, avoid_saddles=False, reuse
                         inertia, factorizations=factorizations)
 
 
-def _fresh_step(problem, z, energy, g, g_norm, pattern, avoid_saddles):
-    """A line-search step along ``−K⁻¹ g`` with ``K`` the exact Hessian, else its PSD projection, else
-    that shifted.
+def _fresh_step(problem, z, energy, g, g_norm, pattern, avoid_saddles, inertia_shift=False):
+    """A line-search step along ``−K⁻¹ g`` with ``K`` the exact Hessian, else (``inertia_shift``) the
+    smallest of :data:`INERTIA_SHIFTS` that makes it positive definite, else its PSD projection,
+    else that shifted.
 
     Returns ``(accepted, mode, exact_factor, factorisations)``: ``accepted`` as
     :func:`~breastcore.nonlinear.line_search._line_search` (None if no mode gave a descent
     step), the mode that gave it, and the exact Hessian's factor (its inertia; None if it
     failed).
     """
+    hessian = getattr(problem, "step_hessian", problem.hessian)
     exact, tried = None, 0
-    for mode in ("exact", "project", "shift"):
+    K = hessian(z, project=False)
+    tried += 1
+    factor, d = factor_solve(K, g, pattern)
+    exact = factor
+    indefinite = factor is not None and bool(factor.negative_pivots)
+    if d is not None and _descends(g, g_norm, d) and not (indefinite and (avoid_saddles or inertia_shift)):
+        accepted = _line_search(problem, z, d, energy, g, g_norm)
+        if accepted is not None:
+            return accepted, "exact", exact, tried
+    if inertia_shift and factor is not None and factor.negative_pivots is not None:
+        scale = np.abs(K.diagonal())
+        for sigma in INERTIA_SHIFTS:
+            tried += 1
+            shifted, d = factor_solve(shift_diagonal(K, sigma * scale), g, pattern)
+            if shifted is None or shifted.negative_pivots or not _descends(g, g_norm, d):
+                continue
+            accepted = _line_search(problem, z, d, energy, g, g_norm, expand=True)
+            if accepted is not None:
+                return accepted, f"shift{sigma:g}", exact, tried
+    for mode in ("project", "shift"):
         tried += 1
-        K = problem.hessian(z, project=(mode != "exact"))
+        K = hessian(z, project=True)
         if mode == "shift":
             K = shift_diagonal(K, 1e-6 * abs(K.diagonal()).max())
-        factor, d = factor_solve(K, g, pattern)
-        if mode == "exact":
-            exact = factor
-            if avoid_saddles and factor is not None and factor.negative_pivots:
-                continue
+        _, d = factor_solve(K, g, pattern)
         if d is None or not _descends(g, g_norm, d):
             continue
-        accepted = _line_search(problem, z, d, energy, g, g_norm, expand=(mode != "exact"))
+        accepted = _line_search(problem, z, d, energy, g, g_norm, expand=True)
         if accepted is not None:
             return accepted, mode, exact, tried
     return None, mode, exact, tried

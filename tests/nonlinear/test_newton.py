@@ -68,3 +68,70 @@ def test_chord_steps_give_the_same_cap_equilibrium_on_coarse(monkeypatch):
 def test_reuse_factor_outside_zero_one_is_refused(bad):
     with pytest.raises(ValueError, match="reuse_factor"):
         SolverOptions(reuse_factor=bad)
+
+
+class SoftModeProblem:
+    """``E(z) = ½ zᵀAz + n (¼ m⁴ − ½ κ m²) − bᵀz`` with ``m`` the mean of ``z``, ``A = I`` plus a weak
+    1-D Laplacian and κ = 1.05: the Hessian ``A + (3m² − κ)/n 11ᵀ`` has a positive diagonal but, near
+    ``m = 0``, one negative eigenvalue (the mean mode, 1 − κ), as a soft mode of the cap does. The
+    projected Hessian clips the mode's curvature ``3m² − κ`` at 0."""
+
+    energy_scale = 1.0
+    pattern = None
+    kappa = 1.05
+
+    def __init__(self, n=50):
+        self.n = n
+        self.A = (sp.identity(n) + 0.1 * sp.diags([-np.ones(n - 1), 2.0 * np.ones(n), -np.ones(n - 1)], [-1, 0, 1]))
+        self.b = 1e-3 * np.cos(np.arange(n))
+
+    def value(self, z):
+        m = z.mean()
+        return float(0.5 * z @ (self.A @ z) + self.n * (0.25 * m**4 - 0.5 * self.kappa * m**2) - self.b @ z)
+
+    def gradient(self, z):
+        m = z.mean()
+        return self.A @ z + (m**3 - self.kappa * m) - self.b
+
+    def hessian(self, z, project=False):
+        curvature = 3.0 * z.mean() ** 2 - self.kappa
+        mode = np.full((self.n, self.n), (max(curvature, 0.0) if project else curvature) / self.n)
+        return sp.csr_matrix(self.A.toarray() + mode)
+
+
+def test_inertia_shift_reaches_a_minimum_through_the_indefinite_region(caplog):
+    from breastcore.linalg import pardiso
+    if not pardiso.available():
+        pytest.skip("the inertia shift needs PARDISO's inertia")
+    problem = SoftModeProblem()
+    z0 = np.full(50, 1e-3)
+    assert np.linalg.eigvalsh(problem.hessian(z0).toarray()).min() < 0
+    with caplog.at_level("DEBUG", logger="breastcore.nonlinear.newton"):
+        result = newton(problem, z0, 1e-10, 100, inertia_shift=True)
+    assert any("mode=shift" in r.message for r in caplog.records)
+    assert result.success and np.linalg.norm(problem.gradient(result.x)) <= 1e-10
+    assert np.linalg.eigvalsh(problem.hessian(result.x).toarray()).min() > 0      # a minimum, not a saddle
+    plain = newton(problem, z0, 1e-10, 100)
+    assert plain.success
+
+
+def test_sliding_dual_and_inertia_shift_give_the_same_cap_equilibrium_on_coarse(monkeypatch):
+    from breastcore.fem.sliding_dual import SlidingDual
+    mesh = mesh_level("coarse")
+    params = Parameters()
+    exact = ForwardModel(mesh, SolverOptions()).solve(params, paper_postures()[1])
+    used = []
+    blocks = SlidingDual.element_hessians
+    monkeypatch.setattr(SlidingDual, "element_hessians", lambda self, x: used.append(1) or blocks(self, x))
+    dual = ForwardModel(mesh, SolverOptions(sliding_dual=True, inertia_shift=True)).solve(params, paper_postures()[1])
+    assert used                                                    # the steps did use the dual blocks
+    assert dual.gradient_norm <= dual.tolerance
+    m_exact = np.array(list(measure(mesh, exact.position, "paper15").values()))
+    m_dual = np.array(list(measure(mesh, dual.position, "paper15").values()))
+    assert np.max(np.abs(m_dual / m_exact - 1.0)) < 1e-7
+
+
+@pytest.mark.parametrize("name", ["sliding_dual", "inertia_shift"])
+def test_step_options_must_be_booleans(name):
+    with pytest.raises(ValueError, match=name):
+        SolverOptions(**{name: "yes"})
