@@ -15,8 +15,8 @@ other, so that a drift of the machine falls on all of them. A variant sets
 :class:`~breastcore.forward.options.SolverOptions` keys in the job's solver spec, for the
 identification's forward solves only (the truth is the workflow's):
 
-Every variant spells out all six settings (``smoothing_start``, ``reuse_factor``, ``sliding_dual``,
-``inertia_shift``, the smoothing δ, ``reduced_snapshots``), so that its meaning does not move with the shipped defaults:
+Every variant spells out all seven settings (``smoothing_start``, ``reuse_factor``, ``sliding_dual``,
+``inertia_shift``, ``mixed_precision_min_dofs``, the smoothing δ, ``reduced_snapshots``), so that its meaning does not move with the shipped defaults:
 
 - ``default``: today's path (no δ phase, chord steps 0.5, reduced starts over 8 snapshots);
 - ``before-21``: the path before issue #21: the gravity ramp at δ = 1e-4 m then a δ
@@ -37,7 +37,9 @@ Every variant spells out all six settings (``smoothing_start``, ``reuse_factor``
   ``reduced8+no-delta-phase+chord0.5`` is ``default``;
 - ``dual``, ``shift``, ``dual+shift``: ``default`` with ``SolverOptions.sliding_dual`` (primal-dual
   Chassaignac blocks in Newton's step matrix), ``inertia_shift`` (a diagonal shift to positive
-  definiteness before the PSD projection), or both.
+  definiteness before the PSD projection), or both;
+- ``mixed``, ``dual+shift+mixed``: ``default`` or ``dual+shift`` with single-precision factors
+  (refined in double) on every level (``mixed_precision_min_dofs = 0``).
 
 The first variant of ``--variants`` is the reference (default: ``before-21``).
 Per job it prints the time, LM iterations, forward solves, the mean |estimate/truth − 1|
@@ -66,8 +68,10 @@ from breastcore.io.datasets import open_dataset  # noqa: E402
 from breastcore.stages.identify import run_identify  # noqa: E402
 
 #: The solver settings before issue #21, and today's.
-BEFORE = {"smoothing_start": 1e-4, "reuse_factor": 0.0, "sliding_dual": False, "inertia_shift": False}
-NEW = {"smoothing_start": 1e-6, "reuse_factor": 0.5, "sliding_dual": False, "inertia_shift": False}
+BEFORE = {"smoothing_start": 1e-4, "reuse_factor": 0.0, "sliding_dual": False, "inertia_shift": False,
+          "mixed_precision_min_dofs": 100_000}
+NEW = {"smoothing_start": 1e-6, "reuse_factor": 0.5, "sliding_dual": False, "inertia_shift": False,
+       "mixed_precision_min_dofs": 100_000}
 COLD = {"reduced_snapshots": 0}
 #: Variant name → (SolverOptions keys, model constants, IdentificationOptions keys) of the identification.
 VARIANTS = {
@@ -84,6 +88,9 @@ VARIANTS = {
     "dual": ({**NEW, "sliding_dual": True}, {}, {"reduced_snapshots": 8}),
     "shift": ({**NEW, "inertia_shift": True}, {}, {"reduced_snapshots": 8}),
     "dual+shift": ({**NEW, "sliding_dual": True, "inertia_shift": True}, {}, {"reduced_snapshots": 8}),
+    "mixed": ({**NEW, "mixed_precision_min_dofs": 0}, {}, {"reduced_snapshots": 8}),
+    "dual+shift+mixed": ({**NEW, "sliding_dual": True, "inertia_shift": True, "mixed_precision_min_dofs": 0}, {},
+                         {"reduced_snapshots": 8}),
 }
 SCENES = {"cross": "paper_table1", "same": "paper_table1_same"}
 

@@ -152,7 +152,9 @@ class ProblemSpec:
 #: that reproduces what those datasets were computed with (not a default: the method of then).
 #: ``reuse_factor`` 0: a fresh factorisation every Newton iteration, the only method before issue #21.
 #: ``sliding_dual``, ``inertia_shift`` False: exact-Hessian steps and the PSD projection, the method before them.
-ADDED_FIELDS = {"SolverOptions": {"reuse_factor": 0.0, "sliding_dual": False, "inertia_shift": False}}
+#: ``mixed_precision_min_dofs`` 100000: the module threshold of then.
+ADDED_FIELDS = {"SolverOptions": {"reuse_factor": 0.0, "sliding_dual": False, "inertia_shift": False,
+                                  "mixed_precision_min_dofs": 100_000}}
 
 
 def _exact(kind, values) -> dict:

@@ -31,7 +31,8 @@ CONSTANTS = dict(skin_thickness=1.2e-3, density=1010.0, gravity_magnitude=9.8, c
                  fold_angle=170.0)
 SOLVER = dict(method="newton", rtol=1e-7, stage_rtol=2e-5, smoothing_start=2e-4, max_iterations=90,
               min_step=1 / 128, cg_max_iterations=15000, max_extensions=3, max_final_attempts=2,
-              reuse_factor=0.25, sliding_dual=True, inertia_shift=True)
+              reuse_factor=0.25, sliding_dual=True, inertia_shift=True,
+              mixed_precision_min_dofs=5000)
 IDENTIFICATION = dict(method="lm", jacobian="implicit", fd_step=2e-4, cost_tol=1e-13, cost_rtol=0.01, xtol=1e-7,
                       ftol=1e-7, gtol=1e-9, max_iterations=3, noise=0.05, initial_trust_radius=0.4,
                       fixed_iterations=False, warm_radius=0.07, reduced_snapshots=3)
@@ -88,13 +89,14 @@ def test_a_spec_written_before_reuse_factor_reads_with_the_method_of_then():
 
 
 def test_a_spec_written_before_the_step_options_reads_with_the_exact_hessian_and_the_projection():
-    """Datasets written before ``sliding_dual`` and ``inertia_shift`` were computed with neither."""
+    """Datasets written before ``sliding_dual``, ``inertia_shift`` and ``mixed_precision_min_dofs`` were
+    computed with neither option and single precision from 100,000 dofs on."""
     spec = non_default_spec()
     data = spec.as_dict()
-    del data["solver"]["sliding_dual"], data["solver"]["inertia_shift"]
+    del data["solver"]["sliding_dual"], data["solver"]["inertia_shift"], data["solver"]["mixed_precision_min_dofs"]
     read = ProblemSpec.from_dict(data)
-    assert read == dataclasses.replace(spec, solver=dataclasses.replace(spec.solver, sliding_dual=False,
-                                                                        inertia_shift=False))
+    assert read == dataclasses.replace(spec, solver=dataclasses.replace(
+        spec.solver, sliding_dual=False, inertia_shift=False, mixed_precision_min_dofs=100_000))
     assert spec.solver.sliding_dual and spec.solver.inertia_shift
 
 

@@ -31,7 +31,7 @@ class FreeDofAssembler:
         True for each unknown dof.
     """
 
-    def __init__(self, connectivities, free):
+    def __init__(self, connectivities, free, mixed_min_dofs=None):
         free = np.asarray(free, dtype=bool).reshape(-1, 3)
         self.free = free.ravel()
         self.n_free = int(self.free.sum())
@@ -72,6 +72,7 @@ class FreeDofAssembler:
             pos = np.where((rows >= 0) & (cols >= 0), rows + offset + cols, np.int32(-1))
             self.positions.append(pos.reshape(n, 3 * k, 3 * k))
         self._pattern = None
+        self.mixed_min_dofs = mixed_min_dofs
 
     @property
     def pattern(self):
@@ -79,6 +80,7 @@ class FreeDofAssembler:
         if self._pattern is None:
             from breastcore.linalg.pardiso import SymmetricPattern
             self._pattern = SymmetricPattern(self.indptr, self.indices, self.n_free)
+            self._pattern.mixed_min_dofs = self.mixed_min_dofs
         return self._pattern
 
     def assemble(self, blocks):

@@ -125,7 +125,8 @@ class ForwardModel:
         key = round(float(fold_angle), 9)
         if key not in self._assemblers:
             conns = [self.mesh.tets, self.mesh.skin_triangles, np.unique(self.mesh.back_triangles)[:, None]]
-            self._assemblers[key] = FreeDofAssembler(conns, self.free_mask(fold_angle))
+            self._assemblers[key] = FreeDofAssembler(conns, self.free_mask(fold_angle),
+                                                     self.options.mixed_precision_min_dofs)
         return self._assemblers[key]
 
     def problem(self, params, posture, load_factor=1.0, smoothing=None):

@@ -51,8 +51,9 @@ class Factorization:
         Without it, or if ``K`` does not match it, the factorisation has a
         private PARDISO handle.
     mixed : bool, optional
-        Factorise in single precision and refine in double (default: when
-        ``n ≥`` :data:`MIXED_PRECISION_MIN_DOFS` and PARDISO is available).
+        Factorise in single precision and refine in double (default: when PARDISO is
+        available and ``n ≥`` the pattern's ``mixed_min_dofs``, or
+        :data:`MIXED_PRECISION_MIN_DOFS` if that is None or ``K`` has no matching pattern).
 
     Notes
     -----
@@ -83,7 +84,8 @@ class Factorization:
                     K.sum_duplicates()
                 pattern = SymmetricPattern(K.indptr, K.indices, K.shape[0])
             self._pattern = pattern
-            self.mixed = K.shape[0] >= MIXED_PRECISION_MIN_DOFS if mixed is None else bool(mixed)
+            threshold = MIXED_PRECISION_MIN_DOFS if pattern.mixed_min_dofs is None else pattern.mixed_min_dofs
+            self.mixed = K.shape[0] >= threshold if mixed is None else bool(mixed)
             self._K = K if self.mixed else None
             self._factorize(K.data[pattern.upper])
         else:

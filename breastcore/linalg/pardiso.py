@@ -148,9 +148,18 @@ class SymmetricPattern:
         CSR structure (sorted column indices) of the full symmetric matrix.
     n : int
         Matrix size.
+
+    Attributes
+    ----------
+    mixed_min_dofs : int or None
+        Matrices of this pattern with at least this many rows are factorised in single
+        precision (:class:`~breastcore.linalg.factorization.Factorization`); None: the
+        module default ``MIXED_PRECISION_MIN_DOFS``. Set by the forward model from
+        ``SolverOptions.mixed_precision_min_dofs``.
     """
 
     def __init__(self, indptr, indices, n):
+        self.mixed_min_dofs = None
         self.n = int(n)
         self.indptr = np.asarray(indptr)
         self.indices = np.asarray(indices)

@@ -8,6 +8,7 @@ from deformations import deformed
 from breastcore.fem.assembly import FreeDofAssembler
 from breastcore.fem.terms import BulkNeoHookean
 from breastcore.forward.model import ForwardModel
+from breastcore.forward.options import SolverOptions
 from breastcore.linalg import factorization, pardiso
 from breastcore.linalg.factorization import Factorization
 from breastcore.model.mesh import mesh_level
@@ -56,16 +57,38 @@ def test_ill_conditioned_matrix_falls_back_to_double_precision(rng):
     np.testing.assert_allclose(x, x_double, rtol=1e-12, atol=0)
 
 
-def test_newton_in_mixed_precision_reaches_the_same_equilibrium(monkeypatch):
-    model, params, fours = ForwardModel(mesh_level("coarse")), Parameters(), parse_posture("fours")
+def test_newton_in_mixed_precision_reaches_the_same_equilibrium():
+    params, fours = Parameters(), parse_posture("fours")
+    model = ForwardModel(mesh_level("coarse"))
     problem = model.problem(params, fours, 1.0, 1e-4)
     tolerance = model.tolerance(params, fours)
     z0 = problem.free(problem.reference)
     double = newton(problem, z0, tolerance)
-    monkeypatch.setattr(factorization, "MIXED_PRECISION_MIN_DOFS", 0)
+    assert not Factorization(problem.hessian(z0), problem.pattern).mixed
+    problem = ForwardModel(mesh_level("coarse"), SolverOptions(mixed_precision_min_dofs=0)).problem(params, fours,
+                                                                                                   1.0, 1e-4)
     assert Factorization(problem.hessian(z0), problem.pattern).mixed                  # the path under test
     mixed = newton(problem, z0, tolerance)
     assert double.success and mixed.success
     assert mixed.negative_pivots == double.negative_pivots == 0
     assert np.linalg.norm(problem.gradient(mixed.x)) <= tolerance           # an equilibrium, recomputed
     np.testing.assert_allclose(mixed.x, double.x, rtol=0, atol=1e-6 * params.R)
+
+
+def test_solver_option_sets_the_mixed_precision_threshold_of_the_model_factorisations():
+    """``SolverOptions.mixed_precision_min_dofs`` reaches every factorisation on the model's pattern:
+    0 puts the coarse level (611 dofs) in single precision, 100,000 keeps it in double."""
+    mesh, params, standing = mesh_level("coarse"), Parameters(), parse_posture("standing")
+    kinds = {}
+    for threshold in (0, 100_000):
+        model = ForwardModel(mesh, SolverOptions(mixed_precision_min_dofs=threshold))
+        solution = model.solve(params, standing)
+        assert solution.gradient_norm <= solution.tolerance                     # converged either way
+        kinds[threshold] = model.tangent(params, standing, solution.position)[1].mixed
+    assert kinds == {0: True, 100_000: False}
+
+
+@pytest.mark.parametrize("bad", [-1, 1.5, True])
+def test_mixed_precision_threshold_must_be_a_non_negative_integer(bad):
+    with pytest.raises(ValueError, match="mixed_precision_min_dofs"):
+        SolverOptions(mixed_precision_min_dofs=bad)
