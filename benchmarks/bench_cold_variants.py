@@ -14,7 +14,8 @@ cold in each paper posture, on the gmsh mesh of ``--level``
 
 - ``before-21``: the settings before issue #21 (the gravity ramp at δ = 1e-4 m, then a δ
   continuation; a fresh factorisation every Newton iteration): the reference, always run;
-- ``default``: the shipped ``SolverOptions`` (today: ``no-delta-phase+chord0.5``);
+- ``default``: the shipped ``SolverOptions`` (today: ``no-delta-phase+chord0.5`` with
+  ``dual+shift+mixed``'s three step options);
 - the others are ``before-21`` with one change:
 - ``smoothing1e-3`` / ``smoothing1e-2``: the gravity ramp at δ = 1e-3 m / 1e-2 m
   (``smoothing_start``) instead of 1e-4 m;
@@ -23,7 +24,9 @@ cold in each paper posture, on the gmsh mesh of ``--level``
 - ``no-delta-phase``: the gravity ramp at the target δ = 1e-6 m (``smoothing_start``), so
   that no δ continuation follows;
 - ``chord0.5``: Newton's chord steps (``reuse_factor = 0.5``: the last factor is reused
-  while the gradient norm halves per iteration), and both together.
+  while the gradient norm halves per iteration), and both together;
+- ``dual+shift+mixed``: primal-dual sliding blocks, inertia shifts and single-precision
+  factors (``sliding_dual``, ``inertia_shift``, ``mixed_precision_min_dofs = 0``).
 
 ``time / before-21`` is the variant's time over the reference's on the same posture, in the
 same process (a warm-up solve first, so that no variant pays the compilation).
@@ -59,7 +62,8 @@ from breastcore.model.postures import paper_postures  # noqa: E402
 from breastcore.nonlinear.newton import newton  # noqa: E402
 
 #: The solver settings before issue #21: the reference every variant is timed against.
-BEFORE = {"smoothing_start": 1e-4, "reuse_factor": 0.0}
+BEFORE = {"smoothing_start": 1e-4, "reuse_factor": 0.0, "sliding_dual": False, "inertia_shift": False,
+          "mixed_precision_min_dofs": 100_000}
 VARIANTS = {
     "before-21": (BEFORE, newton),
     "default": ({}, newton),
@@ -68,7 +72,9 @@ VARIANTS = {
     "projected": (BEFORE, functools.partial(newton, avoid_saddles=True)),
     "no-delta-phase": ({**BEFORE, "smoothing_start": 1e-6}, newton),
     "chord0.5": ({**BEFORE, "reuse_factor": 0.5}, newton),
-    "no-delta-phase+chord0.5": ({"smoothing_start": 1e-6, "reuse_factor": 0.5}, newton),
+    "no-delta-phase+chord0.5": ({**BEFORE, "smoothing_start": 1e-6, "reuse_factor": 0.5}, newton),
+    "dual+shift+mixed": ({**BEFORE, "sliding_dual": True, "inertia_shift": True, "mixed_precision_min_dofs": 0},
+                         newton),
 }
 
 

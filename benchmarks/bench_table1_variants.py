@@ -18,7 +18,10 @@ identification's forward solves only (the truth is the workflow's):
 Every variant spells out all seven settings (``smoothing_start``, ``reuse_factor``, ``sliding_dual``,
 ``inertia_shift``, ``mixed_precision_min_dofs``, the smoothing δ, ``reduced_snapshots``), so that its meaning does not move with the shipped defaults:
 
-- ``default``: today's path (no δ phase, chord steps 0.5, reduced starts over 8 snapshots);
+- ``default``: today's path (no δ phase, chord steps 0.5, reduced starts over 8 snapshots,
+  primal-dual sliding blocks, inertia shifts, single-precision factors);
+- ``exact-steps``: the default path of 2026-12-02: ``default`` with exact-Hessian steps, the
+  PSD projection and double-precision factors on the paper's levels;
 - ``before-21``: the path before issue #21: the gravity ramp at δ = 1e-4 m then a δ
   continuation to 1e-6 m, a fresh factorisation every Newton iteration, cold solves beyond
   the warm radius;
@@ -34,12 +37,11 @@ Every variant spells out all seven settings (``smoothing_start``, ``reuse_factor
   or 8: trial points beyond the warm radius start from the energy's minimiser over the span of
   the last 4 or 8 accepted equilibria's displacements
   (:func:`breastcore.forward.reduced.reduced_start`) instead of cold;
-  ``reduced8+no-delta-phase+chord0.5`` is ``default``;
-- ``dual``, ``shift``, ``dual+shift``: ``default`` with ``SolverOptions.sliding_dual`` (primal-dual
-  Chassaignac blocks in Newton's step matrix), ``inertia_shift`` (a diagonal shift to positive
-  definiteness before the PSD projection), or both;
-- ``mixed``, ``dual+shift+mixed``: ``default`` or ``dual+shift`` with single-precision factors
-  (refined in double) on every level (``mixed_precision_min_dofs = 0``).
+  ``reduced8+no-delta-phase+chord0.5`` is ``exact-steps``;
+- ``dual``, ``shift``, ``dual+shift``, ``mixed``: ``exact-steps`` with ``SolverOptions.sliding_dual``
+  (primal-dual Chassaignac blocks in Newton's step matrix), ``inertia_shift`` (a diagonal shift
+  to positive definiteness before the PSD projection), both, or single-precision factors
+  refined in double on every level (``mixed_precision_min_dofs = 0``); all three is ``default``.
 
 The first variant of ``--variants`` is the reference (default: ``before-21``).
 Per job it prints the time, LM iterations, forward solves, the mean |estimate/truth − 1|
@@ -70,8 +72,10 @@ from breastcore.stages.identify import run_identify  # noqa: E402
 #: The solver settings before issue #21, and today's.
 BEFORE = {"smoothing_start": 1e-4, "reuse_factor": 0.0, "sliding_dual": False, "inertia_shift": False,
           "mixed_precision_min_dofs": 100_000}
-NEW = {"smoothing_start": 1e-6, "reuse_factor": 0.5, "sliding_dual": False, "inertia_shift": False,
-       "mixed_precision_min_dofs": 100_000}
+NEW = {"smoothing_start": 1e-6, "reuse_factor": 0.5, "sliding_dual": True, "inertia_shift": True,
+       "mixed_precision_min_dofs": 0}
+#: The default path of 2026-12-02: exact-Hessian steps, the PSD projection, double precision.
+EXACT = {**NEW, "sliding_dual": False, "inertia_shift": False, "mixed_precision_min_dofs": 100_000}
 COLD = {"reduced_snapshots": 0}
 #: Variant name → (SolverOptions keys, model constants, IdentificationOptions keys) of the identification.
 VARIANTS = {
@@ -79,18 +83,17 @@ VARIANTS = {
     "before-21": (BEFORE, {}, COLD),
     "chord0.5": ({**BEFORE, "reuse_factor": 0.5}, {}, COLD),
     "no-delta-phase": ({**BEFORE, "smoothing_start": 1e-6}, {}, COLD),
-    "no-delta-phase+chord0.5": (NEW, {}, COLD),
+    "no-delta-phase+chord0.5": (EXACT, {}, COLD),
     "delta1e-5": (BEFORE, {"smoothing": 1e-5}, COLD),
     "delta1e-4": (BEFORE, {"smoothing": 1e-4}, COLD),
     "reduced4": (BEFORE, {}, {"reduced_snapshots": 4}),
     "reduced8": (BEFORE, {}, {"reduced_snapshots": 8}),
-    "reduced8+no-delta-phase+chord0.5": (NEW, {}, {"reduced_snapshots": 8}),
-    "dual": ({**NEW, "sliding_dual": True}, {}, {"reduced_snapshots": 8}),
-    "shift": ({**NEW, "inertia_shift": True}, {}, {"reduced_snapshots": 8}),
-    "dual+shift": ({**NEW, "sliding_dual": True, "inertia_shift": True}, {}, {"reduced_snapshots": 8}),
-    "mixed": ({**NEW, "mixed_precision_min_dofs": 0}, {}, {"reduced_snapshots": 8}),
-    "dual+shift+mixed": ({**NEW, "sliding_dual": True, "inertia_shift": True, "mixed_precision_min_dofs": 0}, {},
-                         {"reduced_snapshots": 8}),
+    "reduced8+no-delta-phase+chord0.5": (EXACT, {}, {"reduced_snapshots": 8}),
+    "exact-steps": (EXACT, {}, {"reduced_snapshots": 8}),
+    "dual": ({**EXACT, "sliding_dual": True}, {}, {"reduced_snapshots": 8}),
+    "shift": ({**EXACT, "inertia_shift": True}, {}, {"reduced_snapshots": 8}),
+    "dual+shift": ({**EXACT, "sliding_dual": True, "inertia_shift": True}, {}, {"reduced_snapshots": 8}),
+    "mixed": ({**EXACT, "mixed_precision_min_dofs": 0}, {}, {"reduced_snapshots": 8}),
 }
 SCENES = {"cross": "paper_table1", "same": "paper_table1_same"}
 

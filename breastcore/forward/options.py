@@ -46,17 +46,20 @@ class SolverOptions:
         Newton steps with the primal-dual sliding blocks of
         :class:`~breastcore.fem.sliding_dual.SlidingDual` (Chan-Golub-Mulet) instead of the
         exact Hessian's. The energy and the tolerance are unchanged; back nodes that go from
-        sticking to slipping take fewer steps. False: the exact Hessian (the method before).
+        sticking to slipping take fewer steps. Default True (issue #21, with the two options
+        below: 0.7× the time of ultra-thin Table-1 identifications, docs/benchmarks.md).
+        False: the exact Hessian, the method before.
     inertia_shift : bool
         Newton's indefinite steps (:func:`~breastcore.nonlinear.newton.newton`'s
         ``inertia_shift``): a diagonal shift just large enough for a positive-definite
-        step matrix, before the PSD projection. False: the projection (the method before).
+        step matrix, before the PSD projection. Default True; False: the projection
+        directly, the method before.
     mixed_precision_min_dofs : int
         Newton and Jacobian factorisations of at least this many free dofs are done in
         single precision and refined in double to ‖b − Kx‖ ≤ 1e-10 ‖b‖
-        (:class:`~breastcore.linalg.factorization.Factorization`). The default, 100000,
-        keeps the paper's levels (611-8386 dofs) in double precision, as before; 0 puts
-        them in single too, 1.3-1.6× faster per factorisation and solve on one thread.
+        (:class:`~breastcore.linalg.factorization.Factorization`): 1.3-1.6× faster per
+        factorisation and solve on the paper's levels (611-8386 dofs, one thread). Default
+        0: every level. 100000, the threshold before, keeps the paper's levels in double.
     max_final_attempts : int
         The final δ step (full gravity, target δ, full tolerance) may fail this many
         times, each from a different converged neighbour, before the solve raises.
@@ -80,9 +83,9 @@ class SolverOptions:
     max_extensions: int = 4
     max_final_attempts: int = 3
     reuse_factor: float = 0.5
-    sliding_dual: bool = False
-    inertia_shift: bool = False
-    mixed_precision_min_dofs: int = 100_000
+    sliding_dual: bool = True
+    inertia_shift: bool = True
+    mixed_precision_min_dofs: int = 0
 
     def __post_init__(self):
         if self.method not in ("newton", "cg"):

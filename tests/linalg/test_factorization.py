@@ -59,7 +59,7 @@ def test_ill_conditioned_matrix_falls_back_to_double_precision(rng):
 
 def test_newton_in_mixed_precision_reaches_the_same_equilibrium():
     params, fours = Parameters(), parse_posture("fours")
-    model = ForwardModel(mesh_level("coarse"))
+    model = ForwardModel(mesh_level("coarse"), SolverOptions(mixed_precision_min_dofs=100_000))
     problem = model.problem(params, fours, 1.0, 1e-4)
     tolerance = model.tolerance(params, fours)
     z0 = problem.free(problem.reference)

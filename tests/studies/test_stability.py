@@ -83,7 +83,7 @@ def test_factorisations_sharing_a_pattern_stay_correct():
     for K, f in ((K1, f1), (K2, f2), (K1, f1)):
         x = f.solve(b)
         assert np.linalg.norm(K @ x - b) <= 1e-9 * np.linalg.norm(b)
-    private = Factorization(K1)
+    private = Factorization(K1, mixed=f1.mixed)                 # the same precision, its own handle
     assert np.allclose(private.solve(b), f1.solve(b), rtol=1e-10, atol=0)
 
 
