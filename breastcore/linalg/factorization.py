@@ -21,10 +21,10 @@ log = logging.getLogger(__name__)
 
 
 #: Matrices with at least this many rows are factorised in single precision and solved
-#: by mixed-precision iterative refinement (see :class:`Factorization`). On fine50k
-#: (145k dofs) factorisation and solve take 4.8 s against 10.6 s (2 threads). Smaller
-#: meshes gain 1.2-2.2× too (``benchmarks/bench_factorization.py``), but stay in double
-#: precision: their solves, and the paper scene's results, stay as they were.
+#: by mixed-precision iterative refinement (see :class:`Factorization`), unless their
+#: pattern sets its own threshold (a forward model's: ``SolverOptions.mixed_precision_min_dofs``,
+#: default 0). On fine50k (145k dofs) factorisation and solve take 4.8 s against 10.6 s
+#: (2 threads); the paper's levels gain 1.3-1.6× (``benchmarks/bench_factorization.py``).
 MIXED_PRECISION_MIN_DOFS = 100_000
 #: Refinement stops when ‖b − K x‖ ≤ this × ‖b‖. A double-precision factor reaches
 #: ~1e-14; on the crushed standing states of fine50k refinement mostly levels off at 1.5-7e-12.
