@@ -63,8 +63,9 @@ class NewtonResult:
     projected_steps : int
         Iterations that needed the PSD projection or a shift.
     factorizations : int
-        Hessians assembled and factorised (≤ ``iterations`` + 2 per iteration with a
-        projection or a shift; fewer than ``iterations`` with chord steps).
+        Matrices factorised: one per iteration, plus one per inertia shift tried
+        (≤ :data:`INERTIA_SHIFTS`) and one each for the projection and its shift where
+        the exact step is refused; fewer than ``iterations`` with chord steps.
     history : tuple of float
         Gradient norm before each iteration, N.
     message : str
