@@ -19,8 +19,8 @@ uses 2), medians of ``--repeats``:
 ``--quick`` leaves out fine50k, unless ``--levels`` is given.
 
 The matrix is the exact Hessian at the gravity-free shape under standing gravity, the
-right-hand side its gradient. The solver uses mixed precision from
-``solver.MIXED_PRECISION_MIN_DOFS`` free dofs on.
+right-hand side its gradient. The forward solver uses mixed precision from
+``SolverOptions.mixed_precision_min_dofs`` free dofs on (default 0: every level).
 """
 
 from __future__ import annotations
@@ -37,6 +37,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 from benchmarks._common import header, print_table, timed  # noqa: E402
 
 from breastcore.forward.model import ForwardModel  # noqa: E402
+from breastcore.forward.options import SolverOptions  # noqa: E402
 from breastcore.linalg import factorization as solver  # noqa: E402
 from breastcore.model.mesh import mesh_level  # noqa: E402
 from breastcore.model.parameters import Parameters  # noqa: E402
@@ -82,7 +83,8 @@ def main(argv=None):
     args = parse_args(argv)
     header("Pattern and factorisation costs", [sys.argv[0]] + (argv if argv is not None else sys.argv[1:]))
     print(f"PARDISO threads: {os.environ.get('BREASTCORE_PARDISO_THREADS', '1')}; mixed precision from "
-          f"{solver.MIXED_PRECISION_MIN_DOFS:,} dofs in the solver\n", flush=True)
+          f"{SolverOptions().mixed_precision_min_dofs:,} dofs in the forward solver (SolverOptions; "
+          f"{solver.MIXED_PRECISION_MIN_DOFS:,} for a matrix without a model's pattern)\n", flush=True)
     rows = [level_row(level, args.repeats) for level in args.levels]
     print_table(["level", "nodes", "dofs", "pattern s", "double factor+solve s", "mixed factor+solve s",
                  "double/mixed", "refinement steps", "stayed single", "residual double", "residual mixed"],

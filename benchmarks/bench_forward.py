@@ -143,7 +143,7 @@ def fine50k_rows(cap, postures=("fours",), repeats=3, threads=2):
 
     The child gets ``BREASTCORE_PARDISO_THREADS=threads``: this benchmark has the
     machine to itself, unlike a workflow job. At 145k dofs the factorisation is
-    in single precision with double-precision refinement (``solver.MIXED_PRECISION_MIN_DOFS``).
+    in single precision with double-precision refinement (``SolverOptions.mixed_precision_min_dofs``).
     """
     rows = []
     for posture in postures:

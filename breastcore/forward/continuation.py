@@ -54,7 +54,7 @@ def _minimise(model, problem, z, tolerance):
         log.debug("iteration limit with the energy still falling (%.6e → %.6e): continuing", start_energy,
                   result.energy)
         result = newton(problem, z, tolerance, model.options.max_iterations, reuse=model.options.reuse_factor,
-                    inertia_shift=model.options.inertia_shift)
+                        inertia_shift=model.options.inertia_shift)
         iterations += result.iterations
         factorizations += result.factorizations
     if iterations == result.iterations:

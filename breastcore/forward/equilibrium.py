@@ -47,10 +47,13 @@ class EquilibriumProblem:
         """The matrix of Newton's steps: :meth:`hessian`, with the primal-dual sliding blocks of
         :class:`~breastcore.fem.sliding_dual.SlidingDual` if ``sliding_dual`` (its dual state
         moves to ``z``). It equals :meth:`hessian` at an equilibrium reached by such steps only
-        to the solve's tolerance: Jacobians and inertia checks use :meth:`hessian`."""
+        to the solve's tolerance: Jacobians and the inertia checks of the returned state use
+        :meth:`hessian`; Newton's own ``negative_pivots`` are this matrix's (the sliding blocks
+        are positive definite in both, so the two differ only near a zero eigenvalue)."""
         if self.sliding_dual is None:
             return self.hessian(z, project)
-        terms = self.energy.nonlinear_terms[:-1] + (self.sliding_dual,)
+        terms = tuple(self.sliding_dual if term is self.sliding_dual.term else term
+                      for term in self.energy.nonlinear_terms)
         return self.assembler.assemble_terms(terms, self.full(z), project)
 
     @property

@@ -98,9 +98,11 @@ class SolverOptions:
         for name in ("sliding_dual", "inertia_shift"):
             if not isinstance(getattr(self, name), (bool, np.bool_)):
                 raise ValueError(f"solver option {name} must be true or false, got {getattr(self, name)!r}")
+            object.__setattr__(self, name, bool(getattr(self, name)))       # JSON-able in the spec
         if isinstance(self.mixed_precision_min_dofs, bool) or not (
                 isinstance(self.mixed_precision_min_dofs, (int, np.integer)) and self.mixed_precision_min_dofs >= 0):
             raise ValueError(f"solver option mixed_precision_min_dofs must be an integer ≥ 0, "
                              f"got {self.mixed_precision_min_dofs!r}")
+        object.__setattr__(self, "mixed_precision_min_dofs", int(self.mixed_precision_min_dofs))
         if int(self.max_final_attempts) < 1:
             raise ValueError("solver option max_final_attempts must be ≥ 1")

@@ -13,7 +13,7 @@ per solve), and prints four tables:
   directly from the last accepted equilibrium), ``cold`` (gravity ramp and δ
   continuation from the reference), ``warm fallback`` (a warm start that failed and
   went on by δ continuation); and the modified-Newton steps per job (iterations whose
-  step came from the PSD-projected or shifted Hessian, ``mode=project|shift``);
+  step came from the PSD-projected or shifted Hessian, ``mode=project|shift…``);
 - where the job time goes: the first cold solve (up to LM's iteration 0) and the time
   outside the log's span (the job's start-up), per level (:func:`job_phases`);
 - how often the final continuation step (full gravity, target δ, full tolerance)
@@ -45,7 +45,8 @@ STEP = re.compile(r"breastcore\.forward(?:\.continuation)?: (\S+): step t=(\S+) 
 CONVERGED = re.compile(r"breastcore\.forward(?:\.continuation)?: (\S+): converged in (\d+) iterations \((\d+) continuation"
                        r" steps(?:, (cold|warm|warm fallback) start)?")
 GAVE_UP = re.compile(r"forward solve failed \((\S+): ")
-MODIFIED = re.compile(r"newton it=.* mode=(?:project|shift) ")
+#: ``shift`` (the projection's) and, since the inertia shifts, ``shift0.01``, ``shift0.1``.
+MODIFIED = re.compile(r"newton it=.* mode=(?:project|shift\S*) ")
 FIRST_ITERATE = re.compile(r": identify it=0 ")
 
 

@@ -108,18 +108,21 @@ def test_inertia_shift_reaches_a_minimum_through_the_indefinite_region(caplog):
     assert np.linalg.eigvalsh(problem.hessian(z0).toarray()).min() < 0
     with caplog.at_level("DEBUG", logger="breastcore.nonlinear.newton"):
         result = newton(problem, z0, 1e-10, 100, inertia_shift=True)
-    assert any("mode=shift" in r.message for r in caplog.records)
+    modes = [r.message.split("mode=")[1].split()[0] for r in caplog.records if "mode=" in r.message]
+    # σ = 0.01 leaves the mean mode's eigenvalue (1 − κ + 0.01 diag) negative: refused; 0.1 makes it positive
+    assert "shift0.1" in modes and "shift0.01" not in modes
     assert result.success and np.linalg.norm(problem.gradient(result.x)) <= 1e-10
     assert np.linalg.eigvalsh(problem.hessian(result.x).toarray()).min() > 0      # a minimum, not a saddle
     plain = newton(problem, z0, 1e-10, 100)
-    assert plain.success
+    # the plain exact step heads for the saddle at m = 0 (|g| ~ 1e-8 after one step); the shifted one leaves it
+    assert plain.history[1] < 1e-6 < result.history[1]
 
 
 def test_sliding_dual_and_inertia_shift_give_the_same_cap_equilibrium_on_coarse(monkeypatch):
     from breastcore.fem.sliding_dual import SlidingDual
     mesh = mesh_level("coarse")
     params = Parameters()
-    exact = ForwardModel(mesh, SolverOptions()).solve(params, paper_postures()[1])
+    exact = ForwardModel(mesh, SolverOptions(sliding_dual=False, inertia_shift=False)).solve(params, paper_postures()[1])
     used = []
     blocks = SlidingDual.element_hessians
     monkeypatch.setattr(SlidingDual, "element_hessians", lambda self, x: used.append(1) or blocks(self, x))
@@ -135,3 +138,12 @@ def test_sliding_dual_and_inertia_shift_give_the_same_cap_equilibrium_on_coarse(
 def test_step_options_must_be_booleans(name):
     with pytest.raises(ValueError, match=name):
         SolverOptions(**{name: "yes"})
+
+
+def test_numpy_scalars_in_the_step_options_become_python_ones():
+    """Options built from arrays (e.g. a grid) must stay JSON-able in a dataset's spec."""
+    import json
+    options = SolverOptions(sliding_dual=np.bool_(False), inertia_shift=np.bool_(True),
+                            mixed_precision_min_dofs=np.int64(5000))
+    assert type(options.sliding_dual) is bool and type(options.mixed_precision_min_dofs) is int
+    json.dumps(options.__dict__)

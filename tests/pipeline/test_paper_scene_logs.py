@@ -81,3 +81,11 @@ def test_job_phases_times_the_first_solve_and_what_lies_outside_the_log(tmp_path
 def _stamp(line):
     import datetime
     return datetime.datetime.strptime(line[:23], "%Y-%m-%d %H:%M:%S,%f")
+
+
+def test_modified_steps_count_the_projection_its_shift_and_the_inertia_shifts():
+    from breastcore.studies.paper_scene_logs import MODIFIED
+    modes = ["exact", "chord", "project", "shift", "shift0.01", "shift0.1", "exact"]
+    log = "".join(f"2026-12-03 10:00:00,000 DEBUG breastcore.nonlinear.newton: newton it={i} |g|=1.0e-03 step=1 "
+                  f"E=-4.1e-02 mode={mode} neg=0\n" for i, mode in enumerate(modes))
+    assert len(MODIFIED.findall(log)) == 4
