@@ -15,8 +15,6 @@ from __future__ import annotations
 
 import numpy as np
 
-from breastcore.fem import kernels
-
 
 class SlidingDual:
     r"""Dual state ``q`` of a :class:`~breastcore.fem.loads.Chassaignac` term and its step blocks.
@@ -53,13 +51,9 @@ class SlidingDual:
         self._root = None
         self.q = None
 
-    def _slip(self, x):
-        u = x[self.connectivity[:, 0]] - self.term.anchor
-        return u, kernels.smoothed_norm(u, self.term.smoothing)[1]
-
     def update(self, x):
         """Move ``q`` to the node positions ``x`` (N, 3) by the linearised update (a no-op at the same slips)."""
-        u, root = self._slip(x)
+        u, _, root = self.term._slip(x)                  # the term's own slips and roots
         if self.q is None:
             q = u / root[:, None]
         elif np.array_equal(u, self._slips):
