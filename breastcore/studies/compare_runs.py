@@ -23,18 +23,16 @@ from pathlib import Path
 import numpy as np
 
 from breastcore.io.datasets import open_dataset
-from breastcore.pipeline.logs import benchmark_seconds
+from breastcore.pipeline.batches import identification_seconds
 from breastcore.report.text_table import header, print_table
 
 
-def job_seconds(results: Path, key: str):
-    """Wall seconds of one identify job from its Snakemake ``benchmark:`` file, or None."""
-    return benchmark_seconds(results / "benchmarks" / "identify" / f"{key}.tsv")
 
 
 def compare(before: Path, after: Path, rtol: float, only=None):
     """``{level: {counter: [values]}}`` over the identify jobs both runs have (and in ``only``, a set of names)."""
     levels = defaultdict(lambda: defaultdict(list))
+    seconds_before, seconds_after = identification_seconds(before), identification_seconds(after)
     for new_path in sorted((after / "identify").glob("*.nc")):
         old_path = before / "identify" / new_path.name
         if not old_path.exists() or (only is not None and new_path.name not in only):
@@ -46,7 +44,7 @@ def compare(before: Path, after: Path, rtol: float, only=None):
                 row[f"{name} after"].append(int(new.attrs[name]))
             row["same estimate"].append(bool(np.allclose(new["estimate"].values, old["estimate"].values,
                                                          rtol=rtol, atol=0)))
-        times = job_seconds(before, new_path.stem), job_seconds(after, new_path.stem)
+        times = seconds_before.get(new_path.stem), seconds_after.get(new_path.stem)
         if None not in times:
             row["seconds"].append(times)
     return levels

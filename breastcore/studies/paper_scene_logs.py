@@ -38,7 +38,7 @@ from pathlib import Path
 import xarray as xr
 
 from breastcore.forward.options import SolverOptions
-from breastcore.pipeline.logs import benchmark_seconds
+from breastcore.pipeline.batches import identification_seconds
 from breastcore.report.text_table import header, print_table
 
 STEP = re.compile(r"breastcore\.forward(?:\.continuation)?: (\S+): step t=(\S+) load=\S+ δ=\S+: (.*) in \d+ iterations")
@@ -52,13 +52,13 @@ FIRST_ITERATE = re.compile(r": identify it=0 ")
 
 def jobs(results: Path, since_hash: str | None):
     """``(key, mesh level, failed solves, wall seconds)`` of every identification job."""
-    out = []
+    out, job_seconds = [], identification_seconds(results)
     for path in sorted((results / "identify").glob("*.nc")):
         with xr.open_dataset(path) as ds:
             attrs = dict(ds.attrs)
         if since_hash and not attrs["source_hash"].startswith(since_hash):
             continue
-        seconds = benchmark_seconds(results / "benchmarks" / "identify" / f"{path.stem}.tsv")
+        seconds = job_seconds.get(path.stem)
         seconds = float("nan") if seconds is None else seconds
         out.append((path.stem, attrs["mesh_level"], int(attrs["failed_solves"]), seconds))
     return out

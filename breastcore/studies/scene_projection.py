@@ -24,6 +24,7 @@ import sys
 from collections import defaultdict
 from pathlib import Path
 
+from breastcore.pipeline.batches import identification_seconds
 from breastcore.pipeline.logs import benchmark_seconds
 from breastcore.pipeline.plan import plan_from_files
 from breastcore.report.text_table import header, print_table
@@ -32,6 +33,7 @@ from breastcore.report.text_table import header, print_table
 def scene_groups(plan, workdir: Path) -> dict:
     """``{(scene, stage, level): [seconds or None per job]}`` over the jobs of ``plan``'s ``run_scenes``."""
     groups, counted = defaultdict(list), set()
+    identified = identification_seconds(workdir / plan.results)     # batched ones get a share of their batch
     for scene in plan.run_scenes:
         for dataset in plan.scene_datasets(scene):               # "identify/<name>.nc", ...
             if dataset in counted:
@@ -40,7 +42,8 @@ def scene_groups(plan, workdir: Path) -> dict:
             stage, name = dataset.split("/", 1)
             level = plan.level_of(f"{plan.results}/{dataset}") or "patient"
             bench = workdir / plan.results / "benchmarks" / stage / f"{Path(name).stem}.tsv"
-            groups[(scene, stage, level)].append(benchmark_seconds(bench))
+            seconds = identified.get(Path(name).stem) if stage == "identify" else benchmark_seconds(bench)
+            groups[(scene, stage, level)].append(seconds)
     return dict(groups)
 
 

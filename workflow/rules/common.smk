@@ -3,6 +3,7 @@ import os
 
 from breastcore import STAGES, source_hash, stage_hash
 from breastcore.model.mesh import LEVEL_NODE_COUNTS
+from breastcore.pipeline.batches import batch_benchmark, identify_batches
 from breastcore.pipeline.plan import Plan
 from breastcore.pipeline.resources import DEFAULT_MEM_MB, DEFAULT_MINUTES, THREADS, mem_mb, runtime_minutes
 
@@ -12,6 +13,7 @@ RESULTS = PLAN.results
 # hashes the modules its stage imports (breastcore.stages.<stage>, logs, keys), so an edit
 # of stability.py reruns the stability chunks only; the report rules hash the whole package.
 STAGE_CODE = {stage: stage_hash(stage) for stage in STAGES}
+IDENTIFY_BATCHES = identify_batches(PLAN, PLAN.identify_batch)
 CODE = source_hash()
 
 wildcard_constraints:
@@ -56,6 +58,11 @@ def sensitivity_priority(wildcards):
 
 def identify_spec(wildcards):
     return PLAN.jobs["identify"][f"{RESULTS}/identify/{wildcards.file}.nc"]
+
+
+def identify_specs(wildcards, output):
+    """Params function of the identify rules: the spec of each output, in order."""
+    return [PLAN.jobs["identify"][path] for path in output]
 
 
 def job_level(stage):

@@ -1,15 +1,12 @@
-"""Snakemake script of the identify rule: calls breastcore.stages.identify.run_identify."""
+"""Snakemake script of the identify rules: breastcore.pipeline.batches.run_identifications."""
 
-from breastcore.pipeline.keys import spec_key
-from breastcore.pipeline.logs import log_to
-from breastcore.stages.identify import run_identify
+from breastcore.pipeline.batches import run_identifications
 
 
 def main(snakemake):
-    spec = snakemake.params.spec
-    key = spec_key(spec)
-    with log_to(snakemake.log[0]):
-        run_identify(spec, snakemake.input.measurements, snakemake.input.mesh, snakemake.output[0], key)
+    # one output (rule identify) or a batch (rules identify_batch_<key>): one spec and log each
+    run_identifications(snakemake.params.specs, snakemake.input.measurements, snakemake.input.mesh,
+                        list(snakemake.output), list(snakemake.log), snakemake.rule)
 
 
 if __name__ == "__main__":
