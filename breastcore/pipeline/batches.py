@@ -3,21 +3,25 @@
 A Table-1 cell of the paper scene is ten identifications that differ only in their initial
 guess. As ten jobs, each pays a Python start-up, the imports and the compiled kernels' load
 (about 2-3 s against 4-30 s of work), and Snakemake schedules ten jobs instead of one. A batch
-runs them one after the other in one job; each still writes its own dataset, with the same
-path, content and log as a job of its own (``tests/pipeline/test_batches.py``).
+(rule ``identify_batch_<key>``) runs them one after the other in one process
+(:func:`breastcore.stages.identify.run_identifications`); each still writes its own dataset,
+equal value for value to a lone job's, and its own log (``tests/pipeline/test_batches.py``).
 """
 
 from __future__ import annotations
 
 import datetime
-import logging
 import re
+from collections import defaultdict
 from pathlib import Path
 
 from breastcore.pipeline.keys import spec_key
-from breastcore.pipeline.logs import benchmark_seconds, log_to
+from breastcore.pipeline.logs import benchmark_seconds
 
-logger = logging.getLogger(__name__)
+#: The first line of an identification's log (:func:`breastcore.stages.identify.run_identifications`):
+#: which job ran it, ``identify`` or ``identify_batch_<key>``.
+JOB_LINE = re.compile(r"identification (\d+) of (\d+) in job (\S+)$")
+BATCH_RULE = "identify_batch_"
 
 
 def _context(spec) -> str:
@@ -30,18 +34,24 @@ def identify_batches(plan, size: int) -> dict:
 
     Parameters
     ----------
-    plan : Plan
+    plan : breastcore.pipeline.plan.Plan
+        The workflow's jobs.
     size : int
-        Most identifications per job; 1 = one job each (no batches).
+        Most identifications per job (config key ``identify_batch``); 1 = one job each.
 
     Returns
     -------
     dict
         ``{batch key: [output path, ...]}``, each list of two or more identifications with the
-        same measurements, mesh, constants, solver and options, in plan order. Left out (one
-        job each): identifications alone in their context, the last one of a context when it is
-        left over, and the base of a finite sensitivity, which is scheduled first so that that
-        long job starts early.
+        same measurements, mesh, constants, solver and options, in plan order; the key is a
+        hash of the list. Left out (one job each): identifications alone in their context, the
+        last one of a context when it is left over, and the base of a finite sensitivity, which
+        is scheduled first so that that long job starts early.
+
+    Raises
+    ------
+    ValueError
+        ``size`` < 1.
     """
     if size < 1:
         raise ValueError(f"identify_batch = {size}: the number of identifications per job must be at least 1")
@@ -60,63 +70,55 @@ def identify_batches(plan, size: int) -> dict:
 
 
 def batch_benchmark(results, level, key) -> str:
-    """The ``benchmark:`` file of batch ``key`` on mesh ``level`` (one for the whole batch)."""
+    """The ``benchmark:`` file of batch ``key`` on mesh ``level``, one for the whole batch.
+
+    ``results/benchmarks/identify/batch-<level>-<key>.tsv``, under the results folder ``results``.
+    """
     return f"{results}/benchmarks/identify/batch-{level}-{key}.tsv"
 
 
-#: The first line of an identification's log: which job ran it (``identify`` or ``identify_batch_<key>``).
-JOB_LINE = re.compile(r"identification (\d+) of (\d+) in job (\S+)$")
-
-
-def run_identifications(specs, measurements, mesh, outputs, logs, job):
-    """Run the identifications of one workflow job, one after the other, each with its own log.
-
-    Parameters
-    ----------
-    specs : list of dict
-        The identify job specs (:meth:`Plan.identify`), one per output.
-    measurements, mesh : str
-        The measurement and mesh datasets they share.
-    outputs, logs : list of str
-        Each identification's dataset and log.
-    job : str
-        The rule's name, recorded first in each log (:data:`JOB_LINE`), where
-        :func:`identification_seconds` finds a batch's members.
-    """
-    from breastcore.stages.identify import run_identify      # not at the Snakefile's parse: the model's imports
-
-    for index, (spec, out, log) in enumerate(zip(specs, outputs, logs, strict=True), start=1):
-        with log_to(log):
-            logger.info("identification %d of %d in job %s", index, len(specs), job)
-            run_identify(spec, measurements, mesh, out, spec_key(spec))
-
-
 def _stamp(line):
+    """The time of a log line (``2026-12-03 12:07:17,100 DEBUG ...``)."""
     return datetime.datetime.strptime(line[:23], "%Y-%m-%d %H:%M:%S,%f")
 
 
 def identification_seconds(results) -> dict:
-    """Job seconds of each identification in the results folder ``results``: ``{file stem: s}``.
+    """Job seconds of each identification in a results folder.
 
-    One that ran alone has its job's ``benchmark:`` seconds. One that ran in a batch has a
-    share of its batch's seconds in proportion to its log's time span, so that the shares sum
-    to the batch's seconds (its start-up shared the same way). Left out: identifications with
-    neither (their job's benchmark or log is missing).
+    Parameters
+    ----------
+    results : str or Path
+        A workflow's results folder (its ``benchmarks/identify`` and ``logs/identify``).
+
+    Returns
+    -------
+    dict
+        ``{file stem: s}``, e.g. ``{"coarse-lm-0d07f42fda": 4.2}``. An identification whose log
+        says it ran alone (or names no job: runs before batches) has its own job's
+        ``benchmark:`` seconds. One whose log names a batch has a share of that batch's
+        seconds in proportion to its log's time span, so that the shares sum to the batch's
+        seconds (the start-up shared the same way). Left out: those without a benchmark file
+        (a failed job writes none).
     """
     folder = Path(results)
-    seconds, members = {}, {}
+    batch_of, span = {}, {}
     for log in sorted((folder / "logs" / "identify").glob("*.log")):
-        lines = log.read_text().splitlines()
-        match = JOB_LINE.search(lines[0]) if lines else None
-        if match and match.group(3).startswith("identify_batch_"):
-            span = (_stamp(lines[-1]) - _stamp(lines[0])).total_seconds()
-            members.setdefault(match.group(3).removeprefix("identify_batch_"), []).append((log.stem, span))
+        lines = [line for line in log.read_text(errors="replace").splitlines() if line[:2] == "20"]
+        job = JOB_LINE.search(lines[0]) if lines else None
+        if job and job.group(3).startswith(BATCH_RULE):
+            batch_of[log.stem] = job.group(3).removeprefix(BATCH_RULE)
+            span[log.stem] = (_stamp(lines[-1]) - _stamp(lines[0])).total_seconds()
+    members = defaultdict(list)
+    for stem, key in batch_of.items():
+        members[key].append(stem)
+    seconds = {}
     for bench in sorted((folder / "benchmarks" / "identify").glob("*.tsv")):
         if not bench.stem.startswith("batch-"):
-            seconds[bench.stem] = benchmark_seconds(bench)
+            if bench.stem not in batch_of:        # a lone job's, not one left from before a batch remade it
+                seconds[bench.stem] = benchmark_seconds(bench)
             continue
-        batch = members.get(bench.stem.rsplit("-", 1)[-1], [])
-        total = sum(span for _, span in batch)
-        for stem, span in batch:
-            seconds[stem] = benchmark_seconds(bench) * (span / total if total > 0 else 1 / len(batch))
+        stems = members.get(bench.stem.rsplit("-", 1)[-1], [])
+        total = sum(span[stem] for stem in stems)
+        for stem in stems:
+            seconds[stem] = benchmark_seconds(bench) * (span[stem] / total if total > 0 else 1 / len(stems))
     return seconds

@@ -37,7 +37,7 @@ class Plan:
         self.report = config["report"]["enabled"]
         self.run_scenes = config.get("run_scenes") or list(config["scenes"])
         self.max_starts = config.get("max_starts")
-        self.identify_batch = config.get("identify_batch", 1)
+        self.identify_batch = config["identify_batch"]
         self.jobs = {"mesh": {}, "solve": {}, "measure": {}, "identify": {}, "sensitivity": {}, "stability": {}, "extreme": {},
                      "calibrate": {}, "uniqueness": {}, "scene": {}}
         self.scenes = {}

@@ -14,9 +14,33 @@ from breastcore.io.datasets import mesh_from_dataset, open_dataset, write_netcdf
 from breastcore.io.identification import identification_dataset
 from breastcore.io.targets import target_from_dataset, truth_from_dataset
 from breastcore.model.parameters import IDENTIFIED, Parameters
+from breastcore.pipeline.keys import spec_key
+from breastcore.pipeline.logs import log_to
 from breastcore.problem import ProblemSpec
 
 log = logging.getLogger(__name__)
+
+
+def run_identifications(specs, measurements, mesh, outputs, logs, job):
+    """The identifications of one workflow job, one after the other, each with its own log.
+
+    Parameters
+    ----------
+    specs : list of dict
+        Identify job specs (:meth:`breastcore.pipeline.plan.Plan.identify`), one per output.
+    measurements, mesh : str
+        The measurement and mesh datasets they share.
+    outputs, logs : list of str
+        Each identification's dataset and log file.
+    job : str
+        The rule that runs them (``identify``, or ``identify_batch_<key>`` for a batch of
+        :mod:`breastcore.pipeline.batches`): the first line of each log names it, as
+        ``identification <i> of <n> in job <job>``.
+    """
+    for index, (spec, out, log_path) in enumerate(zip(specs, outputs, logs, strict=True), start=1):
+        with log_to(log_path):
+            log.info("identification %d of %d in job %s", index, len(specs), job)
+            run_identify(spec, measurements, mesh, out, spec_key(spec))
 
 
 def run_identify(spec, measure_path, mesh_path, out, config_hash=None):

@@ -6,7 +6,8 @@ Usage::
 
 Jobs are matched by output name (``results/identify/<hash>.nc``: the hash is the job's
 spec, so the same guess, mesh and options). Per mesh level it prints the job time summed
-over the ``benchmark:`` files of the jobs present in both runs, and the median of the
+over the ``benchmark:`` files of the jobs present in both runs (an identification run in a
+batch counts its share, :func:`~breastcore.pipeline.batches.identification_seconds`), and the median of the
 per-job ratios; then, over the datasets present in both, the LM iterations, forward
 solves and branch restarts, and how many estimates agree to ``--rtol``. With
 ``--paper-only``, only the identify jobs of ``config/paper.yaml`` (545) are compared, not
@@ -25,8 +26,6 @@ import numpy as np
 from breastcore.io.datasets import open_dataset
 from breastcore.pipeline.batches import identification_seconds
 from breastcore.report.text_table import header, print_table
-
-
 
 
 def compare(before: Path, after: Path, rtol: float, only=None):

@@ -5,8 +5,10 @@ Usage::
     python -m breastcore.studies.paper_scene_logs [--results results] [--since-hash PREFIX]
 
 Reads every ``<results>/identify/*.nc`` (mesh level, failed solves), the job's
-Snakemake benchmark (wall seconds) and its log (one line per Newton iteration and
-per solve), and prints four tables:
+Snakemake benchmark (wall seconds; for an identification run in a batch, its share of the
+batch's, :func:`~breastcore.pipeline.batches.identification_seconds`) and its log (one line
+per Newton iteration and per solve), and prints four tables. A "job" below is one
+identification:
 
 - job time per mesh level, with the jobs that had failed trial solves;
 - Newton iterations per kind of forward solve: ``warm`` (the target problem solved
@@ -15,7 +17,7 @@ per solve), and prints four tables:
   went on by δ continuation); and the modified-Newton steps per job (iterations whose
   step came from the PSD-projected or shifted Hessian, ``mode=project|shift…``);
 - where the job time goes: the first cold solve (up to LM's iteration 0) and the time
-  outside the log's span (the job's start-up), per level (:func:`job_phases`);
+  outside the log's span (the job's start-up; for a batch, its share of the one start-up), per level (:func:`job_phases`);
 - how often the final continuation step (full gravity, target δ, full tolerance)
   failed before a solve succeeded or gave up, which is what
   ``SolverOptions.max_final_attempts`` caps; and, over the solves that gave up after

@@ -100,3 +100,35 @@ def test_a_batch_writes_what_single_jobs_write_and_either_reuses_the_others_file
     for workdir, batch in ((alone, 3), (batched, 1)):
         out = snakemake(workdir, batch, "-n")
         assert out.returncode == 0 and "Nothing to be done" in out.stdout + out.stderr, out.stdout[-2000:]
+
+
+def _write_run(folder, logs, benchmarks):
+    """A results folder with identify logs ``{stem: [lines]}`` and benchmark files ``{stem: seconds}``."""
+    (folder / "logs/identify").mkdir(parents=True)
+    (folder / "benchmarks/identify").mkdir(parents=True)
+    for stem, lines in logs.items():
+        (folder / f"logs/identify/{stem}.log").write_text("\n".join(lines) + "\n")
+    for stem, seconds in benchmarks.items():
+        (folder / f"benchmarks/identify/{stem}.tsv").write_text(f"s\th:m:s\n{seconds}\t0:00:00\n")
+
+
+def _log(start, end, job, index=1, count=2):
+    stamp = lambda t: f"2026-12-03 12:00:{t:06.3f}".replace(".", ",")   # logging's format: 12:00:02,000
+    return [f"{stamp(start)} INFO breastcore.stages.identify: identification {index} of {count} in job {job}",
+            f"{stamp(end)} INFO breastcore.stages.identify: fit verdict consistent"]
+
+
+def test_job_seconds_split_a_batch_by_log_span_and_ignore_tracebacks_and_stale_files(tmp_path):
+    failed = _log(10.0, 14.0, "identify_batch_abc", 2) + ["Traceback (most recent call last):", '  File "x.py"']
+    _write_run(tmp_path, {"a": _log(0.0, 2.0, "identify_batch_abc", 1), "z": failed,
+                          "c": _log(0.0, 5.0, "identify", 1, 1), "old": ["2026-11-01 10:00:00,000 DEBUG no job line"]},
+               # "z" was made alone before its batch remade it: its own file (read after the batch's) is stale
+               {"batch-coarse-abc": 12.0, "z": 99.0, "c": 7.5, "old": 3.0, "batch-coarse-gone": 1.0})
+    seconds = identification_seconds(tmp_path)
+    assert seconds == pytest.approx({"a": 4.0, "z": 8.0, "c": 7.5, "old": 3.0})
+
+
+def test_job_seconds_of_a_batch_without_time_spans_are_equal_shares(tmp_path):
+    _write_run(tmp_path, {"a": _log(1.0, 1.0, "identify_batch_k"), "b": _log(1.0, 1.0, "identify_batch_k", 2)},
+               {"batch-coarse-k": 6.0})
+    assert identification_seconds(tmp_path) == {"a": 3.0, "b": 3.0}

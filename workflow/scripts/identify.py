@@ -1,6 +1,6 @@
-"""Snakemake script of the identify rules: breastcore.pipeline.batches.run_identifications."""
+"""Snakemake script of the identify rules: calls breastcore.stages.identify.run_identifications."""
 
-from breastcore.pipeline.batches import run_identifications
+from breastcore.stages.identify import run_identifications
 
 
 def main(snakemake):
