@@ -291,7 +291,11 @@ def test_the_calibration_config_plans_its_scene_and_nothing_else(tmp_path):
     out = subprocess.run([SNAKEMAKE, "-s", str(ROOT / "Snakefile"), "-d", str(tmp_path), "--cores", "2", "-n",
                           "--configfile", str(ROOT / "config/calibration.yaml")], capture_output=True, text=True)
     assert out.returncode == 0, out.stderr[-2000:]
-    rules = Counter(re.findall(r"^(?:local)?rule (\w+):", out.stdout, re.M))
+    jobs = [(block.split(":", 1)[0], (re.findall(r"^    output: (.*)$", block, re.M) or [""])[0])
+            for block in re.split(r"^(?:local)?rule ", out.stdout, flags=re.M)[1:]]
+    # an identification job is rule identify, or a batch of several (identify_batch_<key>): count identifications
+    rules = Counter(rule for rule, _ in jobs if not rule.startswith("identify"))
+    rules["identify"] = sum(len(output.split(", ")) for rule, output in jobs if rule.startswith("identify"))
     scene = yaml.safe_load((ROOT / "config/calibration.yaml").read_text())["scenes"]["calibration"]
     c, levels, runs = len(scene["grid"]), len(scene["levels"]) + 1, len(scene["identify_meshes"]) * scene["starts"]
     # per c: a calibrate job per level and the reference, a probe, the truth solve, its
