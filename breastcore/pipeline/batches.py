@@ -77,8 +77,8 @@ def batch_benchmark(results, level, key) -> str:
     return f"{results}/benchmarks/identify/batch-{level}-{key}.tsv"
 
 
-def _stamp(line):
-    """The time of a log line (``2026-12-03 12:07:17,100 DEBUG ...``)."""
+def log_time(line):
+    """The time of a workflow log line (``2026-12-03 12:07:17,100 DEBUG ...``, :func:`~breastcore.pipeline.logs.log_to`)."""
     return datetime.datetime.strptime(line[:23], "%Y-%m-%d %H:%M:%S,%f")
 
 
@@ -107,7 +107,7 @@ def identification_seconds(results) -> dict:
         job = JOB_LINE.search(lines[0]) if lines else None
         if job and job.group(3).startswith(BATCH_RULE):
             batch_of[log.stem] = job.group(3).removeprefix(BATCH_RULE)
-            span[log.stem] = (_stamp(lines[-1]) - _stamp(lines[0])).total_seconds()
+            span[log.stem] = (log_time(lines[-1]) - log_time(lines[0])).total_seconds()
     members = defaultdict(list)
     for stem, key in batch_of.items():
         members[key].append(stem)
@@ -118,7 +118,7 @@ def identification_seconds(results) -> dict:
                 seconds[bench.stem] = benchmark_seconds(bench)
             continue
         stems = members.get(bench.stem.rsplit("-", 1)[-1], [])
-        total = sum(span[stem] for stem in stems)
+        batch, total = benchmark_seconds(bench), sum(span[stem] for stem in stems)
         for stem in stems:
-            seconds[stem] = benchmark_seconds(bench) * (span[stem] / total if total > 0 else 1 / len(stems))
+            seconds[stem] = batch * (span[stem] / total if total > 0 else 1 / len(stems))
     return seconds

@@ -32,7 +32,6 @@ from __future__ import annotations
 
 import argparse
 import collections
-import datetime
 import re
 import statistics
 from pathlib import Path
@@ -40,7 +39,7 @@ from pathlib import Path
 import xarray as xr
 
 from breastcore.forward.options import SolverOptions
-from breastcore.pipeline.batches import identification_seconds
+from breastcore.pipeline.batches import identification_seconds, log_time
 from breastcore.report.text_table import header, print_table
 
 STEP = re.compile(r"breastcore\.forward(?:\.continuation)?: (\S+): step t=(\S+) load=\S+ δ=\S+: (.*) in \d+ iterations")
@@ -66,10 +65,6 @@ def jobs(results: Path, since_hash: str | None):
     return out
 
 
-def _time(line):
-    return datetime.datetime.strptime(line[:23], "%Y-%m-%d %H:%M:%S,%f")
-
-
 def solve_kinds(log: Path, cap: int = SolverOptions().max_final_attempts):
     """Newton iterations per solve kind, final-step failures before each outcome, retry time.
 
@@ -88,7 +83,7 @@ def solve_kinds(log: Path, cap: int = SolverOptions().max_final_attempts):
             first_t.setdefault(posture, t)
             if t == 2.0 and not message.startswith("converged"):
                 final_failures[posture] += 1
-                failed_at[posture].append(_time(line))
+                failed_at[posture].append(log_time(line))
         elif m := CONVERGED.search(line):
             posture, its, steps = m.group(1), int(m.group(2)), int(m.group(3))
             # Logs since the start kind was written say it; older ones (every solve then had a
@@ -106,7 +101,7 @@ def solve_kinds(log: Path, cap: int = SolverOptions().max_final_attempts):
             first_t.pop(posture, None)
             times = failed_at.pop(posture, [])
             if len(times) > cap:
-                retry["after first"] += (_time(line) - times[0]).total_seconds()
+                retry["after first"] += (log_time(line) - times[0]).total_seconds()
                 retry["up to cap"] += (times[cap - 1] - times[0]).total_seconds()
     return iterations, counts, outcomes, retry
 
@@ -119,9 +114,9 @@ def job_phases(log: Path, seconds: float):
     start-up (interpreter, imports, numba's cached kernels) and what follows the last line.
     """
     lines = [line for line in log.read_text(errors="replace").splitlines() if line[:2] == "20"]
-    start = _time(lines[0])
-    first = next((_time(line) for line in lines if FIRST_ITERATE.search(line)), start)
-    return (first - start).total_seconds(), seconds - (_time(lines[-1]) - start).total_seconds()
+    start = log_time(lines[0])
+    first = next((log_time(line) for line in lines if FIRST_ITERATE.search(line)), start)
+    return (first - start).total_seconds(), seconds - (log_time(lines[-1]) - start).total_seconds()
 
 
 def main(argv=None):

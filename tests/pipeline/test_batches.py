@@ -80,13 +80,14 @@ def test_a_batch_writes_what_single_jobs_write_and_either_reuses_the_others_file
     assert len(list((batched / "results/benchmarks/identify").glob("batch-coarse-*.tsv"))) == 1
     logs = sorted(p.stem for p in (batched / "results/logs/identify").glob("*.log"))
     assert logs == sorted(p.stem for p in (batched / "results/identify").glob("*.nc")) and len(logs) == 3
-    for index, key in enumerate(logs):
+    indices = []
+    for key in logs:
         text = (batched / "results/logs/identify" / f"{key}.log").read_text()
         assert "newton it=" in text and "fit verdict" in text
         job = JOB_LINE.search(text.splitlines()[0])
         assert job.group(2) == "3" and job.group(3).startswith("identify_batch_"), text.splitlines()[0]
-    assert sorted(int(JOB_LINE.search((batched / "results/logs/identify" / f"{k}.log").read_text().splitlines()[0])
-                      .group(1)) for k in logs) == [1, 2, 3]
+        indices.append(int(job.group(1)))
+    assert sorted(indices) == [1, 2, 3]
     # job seconds: a batch's shares sum to its benchmark; alone, each its own benchmark
     batch_seconds = benchmark_seconds(next((batched / "results/benchmarks/identify").glob("batch-*.tsv")))
     shares = identification_seconds(batched / "results")
