@@ -15,11 +15,13 @@ other, so that a drift of the machine falls on all of them. A variant sets
 :class:`~breastcore.forward.options.SolverOptions` keys in the job's solver spec, for the
 identification's forward solves only (the truth is the workflow's):
 
-Every variant spells out all seven settings (``smoothing_start``, ``reuse_factor``, ``sliding_dual``,
-``inertia_shift``, ``mixed_precision_min_dofs``, the smoothing δ, ``reduced_snapshots``), so that its meaning does not move with the shipped defaults:
+Every variant spells out all nine settings (``smoothing_start``, ``reuse_factor``, ``sliding_dual``,
+``inertia_shift``, ``mixed_precision_min_dofs``, ``step_rtol``, ``skip_futile_shifts``, the smoothing δ,
+``reduced_snapshots``), so that its meaning does not move with the shipped defaults:
 
 - ``default``: today's path (no δ phase, chord steps 0.5, reduced starts over 8 snapshots,
-  primal-dual sliding blocks, inertia shifts, single-precision factors);
+  primal-dual sliding blocks, inertia shifts where they can help, single-precision factors,
+  inexact Newton directions);
 - ``exact-steps``: the default path of 2026-12-02: ``default`` with exact-Hessian steps, the
   PSD projection and double-precision factors on the paper's levels;
 - ``before-21``: the path before issue #21: the gravity ramp at δ = 1e-4 m then a δ
@@ -41,7 +43,11 @@ Every variant spells out all seven settings (``smoothing_start``, ``reuse_factor
 - ``dual``, ``shift``, ``dual+shift``, ``mixed``: ``exact-steps`` with ``SolverOptions.sliding_dual``
   (primal-dual Chassaignac blocks in Newton's step matrix), ``inertia_shift`` (a diagonal shift
   to positive definiteness before the PSD projection), both, or single-precision factors
-  refined in double on every level (``mixed_precision_min_dofs = 0``); all three is ``default``.
+  refined in double on every level (``mixed_precision_min_dofs = 0``); all three is ``refined-steps``;
+- ``refined-steps``: the default path of 2026-12-03 (6827140 to 7915c56): every Newton direction
+  refined to 1e-10 (``step_rtol``) and the inertia shifts tried at every indefinite step;
+- ``inexact``, ``skip-shifts``: ``refined-steps`` with ``step_rtol = 1e-3`` (inexact Newton
+  directions) or ``skip_futile_shifts``; both is ``default``.
 
 The first variant of ``--variants`` is the reference (default: ``before-21``).
 Per job it prints the time, LM iterations, forward solves, the mean |estimate/truth − 1|
@@ -71,11 +77,13 @@ from breastcore.stages.identify import run_identify  # noqa: E402
 
 #: The solver settings before issue #21, and today's.
 BEFORE = {"smoothing_start": 1e-4, "reuse_factor": 0.0, "sliding_dual": False, "inertia_shift": False,
-          "mixed_precision_min_dofs": 100_000}
+          "mixed_precision_min_dofs": 100_000, "step_rtol": 1e-10, "skip_futile_shifts": False}
 NEW = {"smoothing_start": 1e-6, "reuse_factor": 0.5, "sliding_dual": True, "inertia_shift": True,
-       "mixed_precision_min_dofs": 0}
+       "mixed_precision_min_dofs": 0, "step_rtol": 1e-3, "skip_futile_shifts": True}
+#: The default path of 2026-12-03 (6827140 to 7915c56): every direction refined, every shift tried.
+REFINED = {**NEW, "step_rtol": 1e-10, "skip_futile_shifts": False}
 #: The default path of 2026-12-02: exact-Hessian steps, the PSD projection, double precision.
-EXACT = {**NEW, "sliding_dual": False, "inertia_shift": False, "mixed_precision_min_dofs": 100_000}
+EXACT = {**REFINED, "sliding_dual": False, "inertia_shift": False, "mixed_precision_min_dofs": 100_000}
 COLD = {"reduced_snapshots": 0}
 #: Variant name → (SolverOptions keys, model constants, IdentificationOptions keys) of the identification.
 VARIANTS = {
@@ -94,6 +102,9 @@ VARIANTS = {
     "shift": ({**EXACT, "inertia_shift": True}, {}, {"reduced_snapshots": 8}),
     "dual+shift": ({**EXACT, "sliding_dual": True, "inertia_shift": True}, {}, {"reduced_snapshots": 8}),
     "mixed": ({**EXACT, "mixed_precision_min_dofs": 0}, {}, {"reduced_snapshots": 8}),
+    "refined-steps": (REFINED, {}, {"reduced_snapshots": 8}),
+    "inexact": ({**REFINED, "step_rtol": 1e-3}, {}, {"reduced_snapshots": 8}),
+    "skip-shifts": ({**REFINED, "skip_futile_shifts": True}, {}, {"reduced_snapshots": 8}),
 }
 SCENES = {"cross": "paper_table1", "same": "paper_table1_same"}
 

@@ -153,8 +153,11 @@ class ProblemSpec:
 #: ``reuse_factor`` 0: a fresh factorisation every Newton iteration, the only method before issue #21.
 #: ``sliding_dual``, ``inertia_shift`` False: exact-Hessian steps and the PSD projection, the method before them.
 #: ``mixed_precision_min_dofs`` 100000: the module threshold of then.
+#: ``step_rtol`` 1e-10, ``skip_futile_shifts`` False: every Newton direction refined to 1e-10, and the
+#: inertia shifts tried at every indefinite step.
 ADDED_FIELDS = {"SolverOptions": {"reuse_factor": 0.0, "sliding_dual": False, "inertia_shift": False,
-                                  "mixed_precision_min_dofs": 100_000}}
+                                  "mixed_precision_min_dofs": 100_000, "step_rtol": 1e-10,
+                                  "skip_futile_shifts": False}}
 
 
 def _exact(kind, values) -> dict:

@@ -32,7 +32,7 @@ CONSTANTS = dict(skin_thickness=1.2e-3, density=1010.0, gravity_magnitude=9.8, c
 SOLVER = dict(method="newton", rtol=1e-7, stage_rtol=2e-5, smoothing_start=2e-4, max_iterations=90,
               min_step=1 / 128, cg_max_iterations=15000, max_extensions=3, max_final_attempts=2,
               reuse_factor=0.25, sliding_dual=False, inertia_shift=False,
-              mixed_precision_min_dofs=5000)
+              mixed_precision_min_dofs=5000, step_rtol=1e-4, skip_futile_shifts=False)
 IDENTIFICATION = dict(method="lm", jacobian="implicit", fd_step=2e-4, cost_tol=1e-13, cost_rtol=0.01, xtol=1e-7,
                       ftol=1e-7, gtol=1e-9, max_iterations=3, noise=0.05, initial_trust_radius=0.4,
                       fixed_iterations=False, warm_radius=0.07, reduced_snapshots=3)
@@ -99,6 +99,19 @@ def test_a_spec_written_before_the_step_options_reads_with_the_exact_hessian_and
     assert read == dataclasses.replace(spec, solver=dataclasses.replace(
         spec.solver, sliding_dual=False, inertia_shift=False, mixed_precision_min_dofs=100_000))
     assert spec.solver.sliding_dual and spec.solver.inertia_shift
+
+
+def test_a_spec_written_before_the_inexact_steps_reads_with_refined_steps_and_every_shift():
+    """Datasets written before ``step_rtol`` and ``skip_futile_shifts`` refined every Newton
+    direction to 1e-10 and tried the inertia shifts at every indefinite step."""
+    spec = non_default_spec()
+    spec = dataclasses.replace(spec, solver=dataclasses.replace(spec.solver, skip_futile_shifts=True))
+    data = spec.as_dict()
+    del data["solver"]["step_rtol"], data["solver"]["skip_futile_shifts"]
+    read = ProblemSpec.from_dict(data)
+    assert read == dataclasses.replace(spec, solver=dataclasses.replace(
+        spec.solver, step_rtol=1e-10, skip_futile_shifts=False))
+    assert spec.solver.step_rtol == 1e-4 and spec.solver.skip_futile_shifts
 
 
 def test_a_dataset_without_a_spec_names_its_stage():

@@ -36,11 +36,16 @@ def _cg_minimiser(model):
     return minimise
 
 
+def _newton(model, problem, z, tolerance):
+    opts = model.options
+    return newton(problem, z, tolerance, opts.max_iterations, reuse=opts.reuse_factor, inertia_shift=opts.inertia_shift,
+                  step_rtol=opts.step_rtol, skip_futile_shifts=opts.skip_futile_shifts)
+
+
 def _minimise(model, problem, z, tolerance):
     if model.options.method == "cg":
         return _cg_minimiser(model)(problem, z, tolerance)
-    result = newton(problem, z, tolerance, model.options.max_iterations, reuse=model.options.reuse_factor,
-                    inertia_shift=model.options.inertia_shift)
+    result = _newton(model, problem, z, tolerance)
     if result.success and result.negative_pivots:                  # an unstable equilibrium: leave it
         return escape_saddle(problem, result, model.options.max_iterations)
     iterations, factorizations = result.iterations, result.factorizations
@@ -53,8 +58,7 @@ def _minimise(model, problem, z, tolerance):
         z = result.x
         log.debug("iteration limit with the energy still falling (%.6e → %.6e): continuing", start_energy,
                   result.energy)
-        result = newton(problem, z, tolerance, model.options.max_iterations, reuse=model.options.reuse_factor,
-                        inertia_shift=model.options.inertia_shift)
+        result = _newton(model, problem, z, tolerance)
         iterations += result.iterations
         factorizations += result.factorizations
     if iterations == result.iterations:

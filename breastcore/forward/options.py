@@ -60,6 +60,20 @@ class SolverOptions:
         (:class:`~breastcore.linalg.factorization.Factorization`): 1.3-1.6× faster per
         factorisation and solve on the paper's levels (611-8386 dofs, one thread). Default
         0: every level. 100000, the threshold before, keeps the paper's levels in double.
+    step_rtol : float
+        Newton's directions are solved to ``‖K d + g‖ ≤ step_rtol ‖g‖`` (the forcing term of an
+        inexact Newton method): a single-precision factor is refined only as far as that, and on
+        the paper's levels its first solve mostly meets 1e-3 already (median 1.5e-6, largest
+        1.6e-3 in a cold ultra-thin solve). The step that ends a solve is taken again along the
+        direction refined to 1e-10, so that equilibria, and M(Λ), are as reproducible as with
+        refined steps; Jacobians and inertia checks solve to 1e-10. Default 1e-3; 1e-10 refines
+        every step, the method before.
+    skip_futile_shifts : bool
+        With ``inertia_shift``: an indefinite step goes to the PSD projection directly where the
+        shifts cannot help: more than 7 negative pivots, or no fewer than at the last iteration
+        of the same Newton solve whose shifts all failed
+        (:data:`~breastcore.nonlinear.newton.MAX_SHIFT_PIVOTS`). Default True; False tries the
+        shifts at every indefinite step, the method before.
     max_final_attempts : int
         The final δ step (full gravity, target δ, full tolerance) may fail this many
         times, each from a different converged neighbour, before the solve raises.
@@ -86,6 +100,8 @@ class SolverOptions:
     sliding_dual: bool = True
     inertia_shift: bool = True
     mixed_precision_min_dofs: int = 0
+    step_rtol: float = 1e-3
+    skip_futile_shifts: bool = True
 
     def __post_init__(self):
         if self.method not in ("newton", "cg"):
@@ -95,7 +111,9 @@ class SolverOptions:
                 raise ValueError(f"solver option {name} must be > 0")
         if not 0.0 <= self.reuse_factor < 1.0:
             raise ValueError("solver option reuse_factor must be in [0, 1)")
-        for name in ("sliding_dual", "inertia_shift"):
+        if not 0 < self.step_rtol < 1:
+            raise ValueError(f"solver option step_rtol must be in (0, 1), got {self.step_rtol!r}")
+        for name in ("sliding_dual", "inertia_shift", "skip_futile_shifts"):
             if not isinstance(getattr(self, name), (bool, np.bool_)):
                 raise ValueError(f"solver option {name} must be true or false, got {getattr(self, name)!r}")
             object.__setattr__(self, name, bool(getattr(self, name)))       # JSON-able in the spec

@@ -41,6 +41,28 @@ def relative_jacobian(mm, values, solutions, options, warm):
     return dM
 
 
+class _LastJacobian:
+    """:func:`relative_jacobian`, remembering its last implicit Jacobian and where it was taken.
+
+    The final Jacobian of :func:`identify` is at LM's last accepted point, whose Jacobian
+    LM has already taken (scipy's ``trf`` asks for it after each accepted step): a second
+    computation would repeat it bit for bit. The finite-difference Jacobian is not kept,
+    as its call also sets the warm starts.
+    """
+
+    def __init__(self):
+        self.values, self.solutions, self.value = None, None, None
+
+    def __call__(self, mm, values, solutions, options, warm):
+        if options.jacobian != "implicit":
+            return relative_jacobian(mm, values, solutions, options, warm)
+        values = np.array(values, dtype=float)
+        if solutions is not self.solutions or not np.array_equal(values, self.values):
+            self.value = relative_jacobian(mm, values, solutions, options, warm)
+            self.values, self.solutions = values, solutions
+        return self.value.copy()
+
+
 def too_few_weighted(weights, parameters) -> str | None:
     """Why the measurements of ``weights`` (posture, quantity) cannot determine ``parameters``
     parameters, with what to do; None when at least ``parameters`` of them have weight > 0."""
@@ -87,8 +109,9 @@ def identify(mm, target, initial, options=IdentificationOptions(), weights=None,
     warm.remember(solutions, initial)
 
     run.record(initial, solutions)
+    jacobian = _LastJacobian()
     method = functools.partial(levenberg_marquardt if options.method == "lm" else gauss_newton,
-                               jacobian=relative_jacobian)
+                               jacobian=jacobian)
     method(mm, target, sqrt_w, np.asarray(initial, float), solutions, options, run, warm)
     if mm.warm_radius > 0:
         branch.check_branch(mm, target, sqrt_w, options, run, method, warm)
@@ -97,5 +120,5 @@ def identify(mm, target, initial, options=IdentificationOptions(), weights=None,
     if run.solutions is None:
         run.solutions = mm.solve(final, warm)
         warm.remember(run.solutions, final)
-    dM = relative_jacobian(mm, final, run.solutions, options, warm)
+    dM = jacobian(mm, final, run.solutions, options, warm)
     return run.result(dM * np.asarray(final)[None, None, :] / target[..., None], forward_solves)

@@ -50,6 +50,8 @@ class _Residuals:
         raise KeyError("scipy asked about a point it has not evaluated")
 
     def residuals(self, d):
+        if not np.any(d):                                 # the start: its equilibria are known
+            return (self.sqrt_w * (self.mm.measure(self.evaluations[0][2]) / self.target - 1.0)).ravel()
         values = from_unconstrained(self.z0 + self.radius * d)
         try:
             sols = self.mm.solve(values, self.warm, jacobian=self.options.jacobian == "implicit")

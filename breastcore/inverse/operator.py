@@ -194,26 +194,32 @@ class MeasurementModel:
         return out
 
     def _posture_jacobian(self, params, values, posture, x, rel_step=1e-6):
-        """One posture's ``(quantity, 6)`` block of :meth:`implicit_jacobian` at equilibrium ``x``."""
-        out = np.zeros((len(self.quantities), len(IDENTIFIED)))
+        """One posture's ``(quantity, 6)`` block of :meth:`implicit_jacobian` at equilibrium ``x``.
+
+        The six right-hand sides ``∂g/∂p_j`` are solved together, one multi-column solve with
+        the factorised ``K``.
+        """
         problem, factor = self.model.tangent(params, posture, x)
         z = problem.free(x)
+        free = problem.assembler.free.reshape(-1, 3)
+        rhs, moved = [], []                                   # ∂g/∂p_j; the fixed dofs' move ∂x/∂p_j
         for j, name in enumerate(IDENTIFIED):
             if name in _MODULI:
                 kind, attribute = _MODULI[name]
                 term = next(t for t in problem.energy.terms if isinstance(t, kind))
                 scale = getattr(term, "thickness", 1.0)          # skin moduli enter as λ_s t_s, μ_s t_s
-                dx = np.zeros_like(x)
-                dx[problem.assembler.free.reshape(-1, 3)] = \
-                    -factor.solve(scale * problem.free(modulus_gradient(term, attribute, x)))
-                out[:, j] = self._directional(x, dx)
+                rhs.append(scale * problem.free(modulus_gradient(term, attribute, x)))
+                moved.append(np.zeros_like(x))
                 continue
             h = min(rel_step * abs(values[j]), GEOMETRY_STEP_PER_SMOOTHING * params.smoothing)
             plus = self.model.problem(params.replace(**{name: values[j] + h}), posture)
             minus = self.model.problem(params.replace(**{name: values[j] - h}), posture)
-            dg = (plus.gradient(z) - minus.gradient(z)) / (2 * h)
-            dx = (plus.full(z) - minus.full(z)) / (2 * h)        # moves the fixed dofs (fold) with R, H
-            dx[problem.assembler.free.reshape(-1, 3)] = -factor.solve(dg)
+            rhs.append((plus.gradient(z) - minus.gradient(z)) / (2 * h))
+            moved.append((plus.full(z) - minus.full(z)) / (2 * h))   # moves the fixed dofs (fold) with R, H
+        solved = factor.solve(np.column_stack(rhs))
+        out = np.zeros((len(self.quantities), len(IDENTIFIED)))
+        for j, dx in enumerate(moved):
+            dx[free] = -solved[:, j]
             out[:, j] = self._directional(x, dx)
         return out
 

@@ -104,13 +104,18 @@ class Factorization:
             handle.factorize(self._data, self._token)
         return handle.solve(self._data, b).astype(float, copy=False)
 
-    def solve(self, b):
+    def solve(self, b, rtol=REFINEMENT_RTOL):
+        """``K⁻¹ b``; a mixed-precision factor refines until ``‖b − K x‖ ≤ rtol ‖b‖`` (per column).
+
+        A looser ``rtol`` than the default suits an inexact Newton direction: a single-precision
+        solve usually meets 1e-3 with no refinement step (``SolverOptions.step_rtol``).
+        """
         b = np.asarray(b, dtype=float)
         if not pardiso.available():
             return self._lu.solve(b)
         if not self.mixed:
             return self._solve_factor(b)
-        x = self._refine(b)
+        x = self._refine(b, rtol)
         if x is not None:
             return x
         log.debug("mixed-precision refinement stalled after %d steps: double precision", self.refinement_steps)
@@ -119,8 +124,8 @@ class Factorization:
         self._factorize(upper)
         return self._solve_factor(b)
 
-    def _refine(self, b):
-        """Mixed-precision iterative refinement of ``K x = b``; ``None`` if it stalls."""
+    def _refine(self, b, rtol=REFINEMENT_RTOL):
+        """Mixed-precision iterative refinement of ``K x = b`` to ``rtol``; ``None`` if it stalls."""
         scale = np.linalg.norm(b, axis=0)
         scale = np.where(scale > 0, scale, 1.0)
         x = self._solve_factor(b)
@@ -128,7 +133,7 @@ class Factorization:
         for _ in range(REFINEMENT_MAX_STEPS + 1):
             r = b - self._K @ x
             ratio = float(np.max(np.linalg.norm(r, axis=0) / scale))
-            if ratio <= REFINEMENT_RTOL:
+            if ratio <= rtol:
                 return x
             if not ratio < 0.5 * best:                              # not converging: κ ε_single ≳ 1
                 return None
@@ -157,10 +162,11 @@ def shift_diagonal(K, sigma):
     return shifted
 
 
-def factor_solve(K, g, pattern=None):
+def factor_solve(K, g, pattern=None, rtol=REFINEMENT_RTOL):
+    """``(factor, −K⁻¹ g)`` solved to ``rtol`` (:meth:`Factorization.solve`); ``(None, None)`` if it fails."""
     try:
         factor = Factorization(K, pattern)
-        d = -factor.solve(g)
+        d = -factor.solve(g, rtol)
     except (RuntimeError, spla.MatrixRankWarning, ValueError):
         return None, None
     if not np.all(np.isfinite(d)):

@@ -36,7 +36,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from breastcore.linalg.factorization import factor_solve, shift_diagonal
+from breastcore.linalg.factorization import REFINEMENT_RTOL, factor_solve, shift_diagonal
 from breastcore.nonlinear.line_search import _dot, _line_search, _norm
 
 log = logging.getLogger(__name__)
@@ -116,11 +116,35 @@ def _stagnated(history, energies, scale):
     return flat and min(history[-w:]) > 0.9 * best_before
 
 
+def _stop(history, energies, scale, at_limit):
+    """Why Newton stops before a step at this iterate (None: it goes on); ``history[-1]`` is |g| here."""
+    if not np.isfinite(history[-1]):
+        return "non-finite gradient"
+    if at_limit:
+        return "iteration limit"
+    if _stagnated(history, energies, scale):
+        return f"stagnated: |g| at its round-off floor for {STAGNATION_WINDOW} iterations"
+    return None
+
+
 #: Relative diagonal shifts ``σ`` tried, in order, by ``inertia_shift`` steps: ``K + σ |diag K|``.
 INERTIA_SHIFTS = (1e-2, 1e-1)
+#: ``skip_futile_shifts``: no shift is tried where the step matrix has more negative pivots than
+#: this. In the cold ultra-thin standing and bent45 solves 30 % off Λ̄, the shifts of
+#: :data:`INERTIA_SHIFTS` made the step matrix positive definite at 1-6 negative pivots and at none
+#: of 8-78 (docs/benchmarks.md, "Inexact Newton steps").
+MAX_SHIFT_PIVOTS = 7
 
 
-def newton(problem, z0, tolerance, max_iterations=50, avoid_saddles=False, reuse=0.0, inertia_shift=False):
+def _shifts_futile(negative_pivots, failed_at):
+    """Whether the inertia shifts cannot help a step matrix with ``negative_pivots``: more than
+    :data:`MAX_SHIFT_PIVOTS`, or no fewer than at the last iteration whose shifts all failed
+    (``failed_at``; None if none has)."""
+    return negative_pivots > MAX_SHIFT_PIVOTS or (failed_at is not None and negative_pivots >= failed_at)
+
+
+def newton(problem, z0, tolerance, max_iterations=50, avoid_saddles=False, reuse=0.0, inertia_shift=False,
+           step_rtol=REFINEMENT_RTOL, skip_futile_shifts=False):
     """Minimise ``problem`` from ``z0`` until the gradient norm is at most ``tolerance``.
 
     Parameters
@@ -152,6 +176,12 @@ def newton(problem, z0, tolerance, max_iterations=50, avoid_saddles=False, reuse
         Where the step matrix has negative pivots (or gives no descent), first try the
         shifts of :data:`INERTIA_SHIFTS` (module notes), then the PSD projection. False
         (default): the projection directly (the method before). Needs PARDISO's inertia.
+    step_rtol : float
+        Directions are solved to ``‖K d + g‖ ≤ step_rtol ‖g‖`` (inexact Newton), the one that ends the
+        solve again to ``REFINEMENT_RTOL`` (:func:`_refined_if_last`). Default: refined, as before.
+    skip_futile_shifts : bool
+        With ``inertia_shift``: go to the projection directly where the shifts cannot help
+        (:func:`_shifts_futile`). False (default): try them at every indefinite step.
 
     Returns
     -------
@@ -163,87 +193,141 @@ def newton(problem, z0, tolerance, max_iterations=50, avoid_saddles=False, reuse
     energy = problem.value(z)
     if not np.isfinite(energy):
         raise ValueError("Newton start is inadmissible (inverted tet or degenerate skin triangle)")
-    history = []
-    energies = [energy]
-    projected = 0
-    message = "iteration limit"
-    pattern = getattr(problem, "pattern", None)                      # reuse the symbolic factorisation
-    inertia = None
-    kept = None                                                      # the last exact factor (chord steps)
-    factorizations = 0
+    history, energies = [], [energy]
+    steps = _Steps(problem, reuse, avoid_saddles, _Shifts(inertia_shift, skip_futile_shifts), step_rtol)
+    g_next = None                                                    # the gradient at z, if known
     for it in range(max_iterations + 1):
-        g = problem.gradient(z)
+        g = problem.gradient(z) if g_next is None else g_next
         g_norm = _norm(g)
         history.append(g_norm)
-        if not np.isfinite(g_norm):
-            message = "non-finite gradient"
-            break
         if g_norm <= tolerance:
-            return NewtonResult(z, True, it, g_norm, tolerance, energy, projected, tuple(history), "converged",
-                                inertia, factorizations=factorizations)
-        if it == max_iterations:
+            return NewtonResult(z, True, it, g_norm, tolerance, energy, steps.projected, tuple(history), "converged",
+                                steps.inertia, factorizations=steps.factorizations)
+        message = _stop(history, energies, abs(energy) + problem.energy_scale, it == max_iterations)
+        if message:
             break
-        if _stagnated(history, energies, abs(energy) + problem.energy_scale):
-            message = f"stagnated: |g| at its round-off floor for {STAGNATION_WINDOW} iterations"
-            break
-        accepted, mode = None, "chord"
-        if kept is not None and g_norm <= reuse * history[-2]:
-            accepted = _chord_step(problem, kept, z, energy, g, g_norm)
-        if accepted is None:                                         # a fresh factor (and no chord)
-            accepted, mode, factor, tried = _fresh_step(problem, z, energy, g, g_norm, pattern, avoid_saddles,
-                                                        inertia_shift)
-            factorizations += tried
-            inertia = None if factor is None else factor.negative_pivots
-            projected += accepted is not None and mode != "exact"
-            kept = factor if accepted is not None and mode == "exact" and reuse > 0 else None
+        accepted, mode, used = steps.take(z, energy, g, g_norm, history)
         if accepted is None:
             message = "no descent step found (line search failed)"
             break
-        step, z, energy = accepted
+        step, z_new, energy_new = accepted
+        g_next = None
+        if step_rtol > REFINEMENT_RTOL and used is not None:
+            z_new, energy_new, g_next = _refined_if_last(problem, used, z, g, step, z_new, energy_new, tolerance)
+        z, energy = z_new, energy_new
         energies.append(energy)
         log.debug("newton it=%d |g|=%.3e step=%.3g E=%.9e mode=%s neg=%s", it, g_norm, step, energy, mode,
-                  inertia)
-    return NewtonResult(z, False, len(history) - 1, history[-1], tolerance, energy, projected, tuple(history), message,
-                        inertia, factorizations=factorizations)
+                  steps.inertia)
+    return NewtonResult(z, False, len(history) - 1, history[-1], tolerance, energy, steps.projected, tuple(history),
+                        message, steps.inertia, factorizations=steps.factorizations)
 
 
-def _fresh_step(problem, z, energy, g, g_norm, pattern, avoid_saddles, inertia_shift=False):
+class _Steps:
+    """How :func:`newton` takes a step: a chord step with the kept factor where it may, else a fresh one.
+
+    Counts the factorisations and the modified (projected or shifted) steps, and keeps the inertia of
+    the last exact factor.
+    """
+
+    def __init__(self, problem, reuse, avoid_saddles, shifts, step_rtol):
+        self.problem, self.reuse, self.avoid_saddles, self.shifts = problem, reuse, avoid_saddles, shifts
+        self.step_rtol, self.pattern = step_rtol, getattr(problem, "pattern", None)   # reuse the symbolic analysis
+        self.kept = self.inertia = None                              # kept: the last exact factor (chord steps)
+        self.factorizations = self.projected = 0
+
+    def take(self, z, energy, g, g_norm, history):
+        """``(accepted, mode, factor)``: the line search's outcome (None: no descent step), the step's
+        mode, and the factor of its unmodified direction (None for a modified one)."""
+        if self.kept is not None and g_norm <= self.reuse * history[-2]:
+            accepted = _chord_step(self.problem, self.kept, z, energy, g, g_norm, self.step_rtol)
+            if accepted is not None:
+                return accepted, "chord", self.kept
+        accepted, mode, factor, tried = _fresh_step(self.problem, z, energy, g, g_norm, self.pattern,
+                                                    self.avoid_saddles, self.shifts, self.step_rtol)
+        self.factorizations += tried
+        self.inertia = None if factor is None else factor.negative_pivots
+        self.projected += accepted is not None and mode != "exact"
+        exact = accepted is not None and mode == "exact"
+        self.kept = factor if exact and self.reuse > 0 else None
+        return accepted, mode, factor if exact else None
+
+
+def _refined_if_last(problem, factor, z0, g, step, z, energy, tolerance):
+    """``(z, energy, gradient at z or None)`` after an inexact step from ``z0``; where that step ends the
+    solve (``|g(z)| ≤ tolerance``), the same step along the direction refined to ``REFINEMENT_RTOL``.
+
+    The inexact direction's error is ``step_rtol``-small but not smooth in the data (single-precision
+    round-off): an equilibrium that ends on it differs from one solve to the next by up to the
+    tolerance. With the last direction refined, what is left of it is contracted like a refined
+    Newton step's, and ``M(Λ)`` is as smooth as with refined steps throughout, which LM's
+    convergence tests need (``docs/benchmarks.md``, "Inexact Newton steps").
+    """
+    g_new = problem.gradient(z)
+    if not _norm(g_new) <= tolerance:
+        return z, energy, g_new
+    try:
+        d = -factor.solve(g)
+    except (RuntimeError, ValueError):
+        return z, energy, g_new
+    refined = z0 + step * d
+    value = problem.value(refined) if np.all(np.isfinite(refined)) else np.inf
+    return (refined, value, None) if np.isfinite(value) else (z, energy, g_new)
+
+
+class _Shifts:
+    """Whether an indefinite step tries the inertia shifts, and the memory ``skip_futile_shifts`` needs."""
+
+    def __init__(self, enabled, skip_futile):
+        self.enabled, self.skip_futile, self.failed_at = bool(enabled), bool(skip_futile), None
+
+    def wanted(self, negative_pivots):
+        return self.enabled and not (self.skip_futile and _shifts_futile(negative_pivots, self.failed_at))
+
+    def failed(self, negative_pivots):
+        self.failed_at = negative_pivots
+
+
+def _fresh_step(problem, z, energy, g, g_norm, pattern, avoid_saddles, shifts=None, step_rtol=REFINEMENT_RTOL):
     """A line-search step along ``−K⁻¹ g`` with ``K`` the exact Hessian, else (``inertia_shift``) the
     smallest of :data:`INERTIA_SHIFTS` that makes it positive definite, else its PSD projection,
     else that shifted.
 
-    Returns ``(accepted, mode, exact_factor, factorisations)``: ``accepted`` as
+    ``shifts``: a :class:`_Shifts` (None: no shifts). Returns ``(accepted, mode, exact_factor,
+    factorisations)``: ``accepted`` as
     :func:`~breastcore.nonlinear.line_search._line_search` (None if no mode gave a descent
     step), the mode that gave it, and the exact Hessian's factor (its inertia; None if it
     failed).
     """
     hessian = getattr(problem, "step_hessian", problem.hessian)
+    inertia_shift = shifts is not None and shifts.enabled
     exact, tried = None, 0
     K = hessian(z, project=False)
     tried += 1
-    factor, d = factor_solve(K, g, pattern)
+    factor, d = factor_solve(K, g, pattern, step_rtol)
     exact = factor
     indefinite = factor is not None and bool(factor.negative_pivots)
     if d is not None and _descends(g, g_norm, d) and not (indefinite and (avoid_saddles or inertia_shift)):
         accepted = _line_search(problem, z, d, energy, g, g_norm)
         if accepted is not None:
             return accepted, "exact", exact, tried
-    if inertia_shift and factor is not None and factor.negative_pivots is not None:
+    if inertia_shift and factor is not None and factor.negative_pivots is not None and \
+            shifts.wanted(factor.negative_pivots):
         scale = np.abs(K.diagonal())
         for sigma in INERTIA_SHIFTS:
             tried += 1
-            shifted, d = factor_solve(shift_diagonal(K, sigma * scale), g, pattern)
+            shifted, d = factor_solve(shift_diagonal(K, sigma * scale), g, pattern, step_rtol)
             if shifted is None or shifted.negative_pivots or not _descends(g, g_norm, d):
                 continue
             accepted = _line_search(problem, z, d, energy, g, g_norm, expand=True)
             if accepted is not None:
                 return accepted, f"shift{sigma:g}", exact, tried
+        shifts.failed(factor.negative_pivots)
     for mode in ("project", "shift"):
         tried += 1
         K = hessian(z, project=True)
         if mode == "shift":
             K = shift_diagonal(K, 1e-6 * abs(K.diagonal()).max())
-        _, d = factor_solve(K, g, pattern)
+        _, d = factor_solve(K, g, pattern, step_rtol)
         if d is None or not _descends(g, g_norm, d):
             continue
         accepted = _line_search(problem, z, d, energy, g, g_norm, expand=True)
@@ -252,14 +336,14 @@ def _fresh_step(problem, z, energy, g, g_norm, pattern, avoid_saddles, inertia_s
     return None, mode, exact, tried
 
 
-def _chord_step(problem, factor, z, energy, g, g_norm):
+def _chord_step(problem, factor, z, energy, g, g_norm, step_rtol=REFINEMENT_RTOL):
     """A line-search step along ``−K₀⁻¹ g`` with an earlier exact factor ``K₀``; None if it is no descent.
 
     Only a full step is taken: a chord direction that needs backtracking says that ``K₀``
     no longer models the energy here, and a fresh factorisation is cheaper than a search.
     """
     try:
-        d = -factor.solve(g)
+        d = -factor.solve(g, step_rtol)
     except (RuntimeError, ValueError):
         return None
     if not np.all(np.isfinite(d)) or not _descends(g, g_norm, d):

@@ -92,3 +92,25 @@ def test_solver_option_sets_the_mixed_precision_threshold_of_the_model_factorisa
 def test_mixed_precision_threshold_must_be_a_non_negative_integer(bad):
     with pytest.raises(ValueError, match="mixed_precision_min_dofs"):
         SolverOptions(mixed_precision_min_dofs=bad)
+
+
+def test_a_loose_rtol_stops_the_refinement_as_soon_as_the_residual_meets_it(small_box, rng):
+    """``solve(b, rtol)``: an inexact Newton direction needs ‖b − Kx‖ ≤ rtol ‖b‖, not double accuracy."""
+    nodes, tets, top, bottom = small_box
+    bulk = BulkNeoHookean(nodes, tets, 1000.0, 150.0)
+    free = np.ones(nodes.shape, bool)
+    free[bottom.ravel()] = False
+    assembler = FreeDofAssembler([tets], free)
+    K = assembler.assemble_terms([bulk], deformed(nodes, rng))
+    b = rng.standard_normal(K.shape[0])
+    first = _relative_residual(K, Factorization(K, assembler.pattern, mixed=True)._solve_factor(b), b)
+    assert factorization.REFINEMENT_RTOL < first < 1e-3            # single precision alone: between the two
+    loose = Factorization(K, assembler.pattern, mixed=True)
+    x = loose.solve(b, rtol=1e-3)
+    assert loose.refinement_steps == 0 and _relative_residual(K, x, b) <= 1e-3
+    strict = Factorization(K, assembler.pattern, mixed=True)
+    assert _relative_residual(K, strict.solve(b), b) <= factorization.REFINEMENT_RTOL
+    assert strict.refinement_steps >= 1
+    tight = Factorization(K, assembler.pattern, mixed=True)
+    x = tight.solve(b, rtol=0.1 * first)                           # below the first residual: refined
+    assert tight.refinement_steps >= 1 and _relative_residual(K, x, b) <= 0.1 * first

@@ -147,3 +147,65 @@ def test_numpy_scalars_in_the_step_options_become_python_ones():
                             mixed_precision_min_dofs=np.int64(5000))
     assert type(options.sliding_dual) is bool and type(options.mixed_precision_min_dofs) is int
     json.dumps(options.__dict__)
+
+
+def _cold_standing(options, mesh_name="coarse", factors=(1.0,) * 6):
+    model = ForwardModel(mesh_level(mesh_name), options)
+    params = Parameters()
+    params = params.with_identified(np.array(params.identified()) * np.array(factors))
+    return model, model.solve(params, paper_postures()[0])
+
+
+def test_inexact_newton_steps_reach_the_same_equilibrium_on_coarse():
+    """``step_rtol`` 1e-3 against directions refined to 1e-10: both stop at |g| ≤ tolerance, and the
+    equilibria agree to what that tolerance allows."""
+    model, refined = _cold_standing(SolverOptions(step_rtol=1e-10))
+    _, inexact = _cold_standing(SolverOptions(step_rtol=1e-3))
+    problem = model.problem(Parameters(), paper_postures()[0])
+    g = problem.gradient(problem.free(inexact.position))
+    assert np.linalg.norm(g) <= inexact.tolerance                     # an equilibrium, recomputed here
+    assert inexact.negative_eigenvalues == 0
+    m_refined = np.array(list(measure(model.mesh, refined.position, "paper15").values()))
+    m_inexact = np.array(list(measure(model.mesh, inexact.position, "paper15").values()))
+    assert 0 < np.max(np.abs(m_inexact / m_refined - 1.0)) < 1e-7     # another path, the same equilibrium
+
+
+def test_step_rtol_must_be_in_the_open_unit_interval():
+    for bad in (0.0, 1.0, -1e-3):
+        with pytest.raises(ValueError, match="step_rtol"):
+            SolverOptions(step_rtol=bad)
+
+
+def test_shifts_are_futile_above_the_pivot_cap_or_where_they_failed_with_as_many_pivots():
+    from breastcore.nonlinear.newton import MAX_SHIFT_PIVOTS, _shifts_futile
+    assert not _shifts_futile(MAX_SHIFT_PIVOTS, None)
+    assert _shifts_futile(MAX_SHIFT_PIVOTS + 1, None)
+    assert _shifts_futile(3, failed_at=3) and _shifts_futile(4, failed_at=3)
+    assert not _shifts_futile(2, failed_at=3)                      # fewer negative pivots: worth a try again
+
+
+def test_skipping_futile_shifts_saves_factorisations_and_keeps_the_equilibrium(monkeypatch):
+    """A cold standing solve on medium 30 % off Λ̄ meets indefinite step matrices whose shifts fail;
+    skipping the shifts that the rule calls futile must not change a step that a shift would have
+    given, here: the same equilibrium bit for bit, fewer factorisations."""
+    import breastcore.nonlinear.newton as newton_module
+    counts = {}
+
+    def counting(skip):
+        real = newton_module.newton
+
+        def run(*args, **kwargs):
+            result = real(*args, **kwargs)
+            counts[skip] = counts.get(skip, 0) + result.factorizations
+            return result
+        return run
+
+    base = dict(step_rtol=1e-10)
+    for skip in (False, True):
+        monkeypatch.setattr("breastcore.forward.continuation.newton", counting(skip))
+        _, solution = _cold_standing(SolverOptions(skip_futile_shifts=skip, **base), "medium",
+                                     (1.3, 0.7, 0.7, 1.3, 1.3, 0.7))
+        if skip:
+            np.testing.assert_array_equal(solution.position, tried.position)
+        tried = solution
+    assert counts[True] < counts[False]
