@@ -16,7 +16,7 @@ import time
 import numpy as np
 
 from breastcore.forward.records import PostureSolution, SolveError
-from breastcore.linalg.factorization import hessian_inertia
+from breastcore.linalg.factorization import hessian_factor, hessian_inertia
 from breastcore.model.parameters import Parameters
 from breastcore.model.postures import Posture
 from breastcore.nonlinear.newton import newton
@@ -241,7 +241,11 @@ def _settle(model, problem, result):
     (:func:`~breastcore.nonlinear.saddle.escape_saddle`), for Newton and CG alike.
     """
     if not result.inertia_at_x:
-        result = dataclasses.replace(result, negative_pivots=hessian_inertia(problem, result.x), inertia_at_x=True)
+        factor = hessian_factor(problem, result.x)
+        result = dataclasses.replace(result, negative_pivots=None if factor is None else factor.negative_pivots,
+                                     inertia_at_x=True)
+        if factor is not None and factor.negative_pivots == 0:     # a stable equilibrium: its Jacobian's factor
+            model.remember_tangent(problem, problem.full(result.x), factor)
     if not result.negative_pivots:
         return result
     minimise = _cg_minimiser(model) if model.options.method == "cg" else newton

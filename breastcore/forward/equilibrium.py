@@ -14,8 +14,9 @@ class EquilibriumProblem:
     """``J_h`` on the free dofs for one parameter set, gravity vector and δ, on the mesh of ``model``
     (a :class:`~breastcore.forward.model.ForwardModel`)."""
 
-    def __init__(self, model, params: Parameters, acceleration, smoothing, sliding_dual=False):
-        self.model = model
+    def __init__(self, model, params: Parameters, acceleration, smoothing, sliding_dual=False, slot=None):
+        self.model, self.params, self.slot = model, params, slot
+        self.acceleration, self.smoothing = np.asarray(acceleration, dtype=float), float(smoothing)
         self.reference = model.reference(params.R, params.H)
         self.assembler = model.assembler(params.fold_angle)
         bulk, skin, gravity, sliding = model.energy_terms(params, acceleration, smoothing)
@@ -58,5 +59,8 @@ class EquilibriumProblem:
 
     @property
     def pattern(self):
-        """Sparsity pattern of :meth:`hessian` (its PARDISO symbolic analysis is reused)."""
-        return self.assembler.pattern
+        """Sparsity pattern of :meth:`hessian` (its PARDISO symbolic analysis is reused); with a
+        ``slot`` (a posture's name), the model's copy of that slot, with its own PARDISO handles."""
+        if self.slot is None:
+            return self.assembler.pattern
+        return self.model.pattern(self.params.fold_angle, self.slot)

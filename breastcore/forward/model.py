@@ -50,6 +50,8 @@ class ForwardModel:
         self.options = options
         self.map = CapMap(mesh)
         self._assemblers = {}
+        self._patterns = {}                   # (fold angle, posture name) → that posture's pattern
+        self._tangents = {}                   # posture name → (problem, x, factor) of its last equilibrium
         self._geometries = collections.OrderedDict()
 
     def reference(self, R, H):
@@ -129,10 +131,18 @@ class ForwardModel:
                                                      self.options.mixed_precision_min_dofs)
         return self._assemblers[key]
 
+    def pattern(self, fold_angle, slot):
+        """The Hessian pattern of :meth:`assembler` with PARDISO handles of its own for ``slot``
+        (a posture's name), so that each posture's last factor survives the others' solves."""
+        key = (round(float(fold_angle), 9), slot)
+        if key not in self._patterns:
+            self._patterns[key] = self.assembler(fold_angle).pattern.sibling()
+        return self._patterns[key]
+
     def problem(self, params, posture, load_factor=1.0, smoothing=None):
         accel = load_factor * posture.gravity(params.gravity_magnitude)
         return EquilibriumProblem(self, params, accel, params.smoothing if smoothing is None else smoothing,
-                                  sliding_dual=self.options.sliding_dual)
+                                  sliding_dual=self.options.sliding_dual, slot=posture.name)
 
     def tolerance(self, params, posture):
         """Absolute stopping tolerance: ``rtol`` × ‖gravity load vector‖ (N).
@@ -143,9 +153,23 @@ class ForwardModel:
         load = float(np.linalg.norm(self._gravity(params, posture.gravity(params.gravity_magnitude)).load))
         return self.options.rtol * (load if load > 0 else params.mu_breast * params.R**2)
 
+    def remember_tangent(self, problem, position, factor):
+        """Keep ``factor``, the exact Hessian of ``problem`` factorised at the equilibrium ``position``
+        (by the solve's inertia check), for :meth:`tangent` to reuse."""
+        self._tangents[problem.slot] = (problem, np.array(position, dtype=float), factor)
+
     def tangent(self, params, posture, position):
-        """Exact free-dof Hessian at ``position``, factorised (for sensitivities)."""
+        """Exact free-dof Hessian at ``position``, factorised (for sensitivities).
+
+        Where ``position`` is the last equilibrium solved for ``posture`` at ``params``, the
+        factor of its inertia check is that matrix factorised already (:meth:`remember_tangent`),
+        and is returned instead of a new one: the same matrix, the same factor.
+        """
         problem = self.problem(params, posture)
+        kept = self._tangents.get(posture.name)
+        if kept is not None and kept[0].params == params and np.array_equal(kept[0].acceleration, problem.acceleration) \
+                and kept[0].smoothing == problem.smoothing and np.array_equal(kept[1], position):
+            return kept[0], kept[2]
         return problem, Factorization(problem.hessian(problem.free(position)), problem.pattern)
 
     def solve(self, params: Parameters, posture: Posture, start=None) -> PostureSolution:
@@ -156,6 +180,7 @@ class ForwardModel:
         """In a forked child: drop the parent's PARDISO analyses, so that this process makes its own."""
         for assembler in self._assemblers.values():
             assembler._pattern = None
+        self._patterns, self._tangents = {}, {}
 
     def solve_postures(self, params: Parameters, postures, starts=None, processes=1,
                        finish=None) -> list[PostureSolution]:

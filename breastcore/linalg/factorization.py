@@ -174,13 +174,20 @@ def factor_solve(K, g, pattern=None, rtol=REFINEMENT_RTOL):
     return factor, d
 
 
-def hessian_inertia(problem, z, K=None):
-    """Negative eigenvalues of the exact free-dof Hessian at ``z`` (None without PARDISO's inertia).
+def hessian_factor(problem, z, K=None):
+    """The factorised exact free-dof Hessian at ``z`` (None if it is singular).
 
     One numeric factorisation (the pattern's symbolic analysis is reused). ``K``: that
     Hessian, if the caller has already assembled it (``problem.hessian(z)`` otherwise).
     """
     try:
-        return Factorization(problem.hessian(z) if K is None else K, getattr(problem, "pattern", None)).negative_pivots
-    except (RuntimeError, ValueError, spla.MatrixRankWarning):     # singular: no inertia to report
+        return Factorization(problem.hessian(z) if K is None else K, getattr(problem, "pattern", None))
+    except (RuntimeError, ValueError, spla.MatrixRankWarning):
         return None
+
+
+def hessian_inertia(problem, z, K=None):
+    """Negative eigenvalues of the exact free-dof Hessian at ``z`` (None without PARDISO's inertia,
+    or where it is singular); see :func:`hessian_factor`."""
+    factor = hessian_factor(problem, z, K)
+    return None if factor is None else factor.negative_pivots

@@ -171,6 +171,15 @@ class SymmetricPattern:
         self.ja = self.indices[upper].astype(np.int32) + 1
         self._handles = {}
 
+    def sibling(self) -> "SymmetricPattern":
+        """The same pattern with PARDISO handles of its own, so that a factor held there survives
+        factorisations of this pattern's (e.g. one per posture: a posture's last factor is
+        still there when its Jacobian asks for it)."""
+        twin = object.__new__(SymmetricPattern)
+        twin.__dict__.update(self.__dict__)
+        twin._handles = {}
+        return twin
+
     def matches(self, K):
         return (K.shape == (self.n, self.n) and K.format == "csr" and K.has_sorted_indices
                 and (K.indptr is self.indptr or np.array_equal(K.indptr, self.indptr))
