@@ -155,8 +155,19 @@ class ForwardModel:
 
     def remember_tangent(self, problem, position, factor):
         """Keep ``factor``, the exact Hessian of ``problem`` factorised at the equilibrium ``position``
-        (by the solve's inertia check), for :meth:`tangent` to reuse."""
-        self._tangents[problem.slot] = (problem, np.array(position, dtype=float), factor)
+        (by the solve's inertia check), for :meth:`tangent` to reuse.
+
+        One factor per posture (slot) is kept, with the matrix its mixed-precision refinement needs:
+        on ultra-thin about 10 MB a posture; on fine50k a few hundred MB (an estimate, not measured).
+        :meth:`release_tangents` drops them.
+        """
+        self._tangents[problem.slot] = (problem.params, problem.acceleration, problem.smoothing,
+                                        np.array(position, dtype=float), factor)
+
+    def release_tangents(self):
+        """Drop the factors kept by :meth:`remember_tangent` (their PARDISO memory stays with the
+        posture's handle until its next factorisation or :meth:`after_fork`)."""
+        self._tangents = {}
 
     def tangent(self, params, posture, position):
         """Exact free-dof Hessian at ``position``, factorised (for sensitivities).
@@ -167,9 +178,9 @@ class ForwardModel:
         """
         problem = self.problem(params, posture)
         kept = self._tangents.get(posture.name)
-        if kept is not None and kept[0].params == params and np.array_equal(kept[0].acceleration, problem.acceleration) \
-                and kept[0].smoothing == problem.smoothing and np.array_equal(kept[1], position):
-            return kept[0], kept[2]
+        if kept is not None and kept[0] == params and np.array_equal(kept[1], problem.acceleration) \
+                and kept[2] == problem.smoothing and np.array_equal(kept[3], position):
+            return problem, kept[4]
         return problem, Factorization(problem.hessian(problem.free(position)), problem.pattern)
 
     def solve(self, params: Parameters, posture: Posture, start=None) -> PostureSolution:

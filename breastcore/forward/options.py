@@ -6,6 +6,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from breastcore.linalg.factorization import REFINEMENT_RTOL
+
 
 @dataclass(frozen=True)
 class SolverOptions:
@@ -64,10 +66,10 @@ class SolverOptions:
         Newton's directions are solved to ``‖K d + g‖ ≤ step_rtol ‖g‖`` (the forcing term of an
         inexact Newton method): a single-precision factor is refined only as far as that, and on
         the paper's levels its first solve mostly meets 1e-3 already (median 1.5e-6, largest
-        1.6e-3 in a cold ultra-thin solve). The step that ends a solve is taken again along the
-        direction refined to 1e-10, so that equilibria, and M(Λ), are as reproducible as with
-        refined steps; Jacobians and inertia checks solve to 1e-10. Default 1e-3; 1e-10 refines
-        every step, the method before.
+        1.6e-3 in a cold ultra-thin solve). An exact or chord step that ends a solve is retaken
+        along the direction refined to 1e-10, so that equilibria, and central differences of
+        M(Λ), are as reproducible as with refined steps; Jacobian solves refine to 1e-10. Default
+        1e-3; 1e-10 (the least allowed) refines every step, the method before.
     skip_futile_shifts : bool
         With ``inertia_shift``: an indefinite step goes to the PSD projection directly where the
         shifts cannot help: more than 7 negative pivots, or no fewer than at the last iteration
@@ -111,8 +113,10 @@ class SolverOptions:
                 raise ValueError(f"solver option {name} must be > 0")
         if not 0.0 <= self.reuse_factor < 1.0:
             raise ValueError("solver option reuse_factor must be in [0, 1)")
-        if not 0 < self.step_rtol < 1:
-            raise ValueError(f"solver option step_rtol must be in (0, 1), got {self.step_rtol!r}")
+        if isinstance(self.step_rtol, bool) or not REFINEMENT_RTOL <= self.step_rtol < 1:
+            raise ValueError(f"solver option step_rtol must be in [{REFINEMENT_RTOL:g}, 1) (below it the "
+                             f"refinement cannot get), got {self.step_rtol!r}")
+        object.__setattr__(self, "step_rtol", float(self.step_rtol))
         for name in ("sliding_dual", "inertia_shift", "skip_futile_shifts"):
             if not isinstance(getattr(self, name), (bool, np.bool_)):
                 raise ValueError(f"solver option {name} must be true or false, got {getattr(self, name)!r}")

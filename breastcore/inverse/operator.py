@@ -54,8 +54,8 @@ class MeasurementModel:
     processes : int
         The postures are solved in this many forked processes
         (:meth:`ForwardModel.solve_postures`; the same results bit for bit).
-        Worth it from the thin mesh up: each call forks and redoes the symbolic
-        factorisation (~0.1 s on ultra-thin), against 1-7 s for a posture.
+        Worth it from the thin mesh up: each call forks, and each worker redoes the symbolic
+        factorisation of each posture it solves (~0.1 s on ultra-thin), against 1-7 s for a posture.
     reduced_snapshots : int
         0: solves beyond ``warm_radius`` are cold. n > 0 (default: that of
         :class:`~breastcore.inverse.options.IdentificationOptions`, 8): they start from

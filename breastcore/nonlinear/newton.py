@@ -177,8 +177,8 @@ def newton(problem, z0, tolerance, max_iterations=50, avoid_saddles=False, reuse
         shifts of :data:`INERTIA_SHIFTS` (module notes), then the PSD projection. False
         (default): the projection directly (the method before). Needs PARDISO's inertia.
     step_rtol : float
-        Directions are solved to ``‖K d + g‖ ≤ step_rtol ‖g‖`` (inexact Newton), the one that ends the
-        solve again to ``REFINEMENT_RTOL`` (:func:`_refined_if_last`). Default: refined, as before.
+        Directions are solved to ``‖K d + g‖ ≤ step_rtol ‖g‖`` (inexact Newton); an exact or chord
+        step that ends the solve is retaken refined (:func:`_refined_if_last`). Default: refined.
     skip_futile_shifts : bool
         With ``inertia_shift``: go to the projection directly where the shifts cannot help
         (:func:`_shifts_futile`). False (default): try them at every indefinite step.
@@ -253,17 +253,19 @@ class _Steps:
 
 
 def _refined_if_last(problem, factor, z0, g, step, z, energy, tolerance):
-    """``(z, energy, gradient at z or None)`` after an inexact step from ``z0``; where that step ends the
-    solve (``|g(z)| ≤ tolerance``), the same step along the direction refined to ``REFINEMENT_RTOL``.
+    """``(z, energy, gradient at z)`` after an inexact step from ``z0`` along ``factor``'s direction;
+    where that step ends the solve (``|g(z)| ≤ tolerance``), the same step along the direction
+    refined to ``REFINEMENT_RTOL``, if that point is an equilibrium to the tolerance too.
 
     The inexact direction's error is ``step_rtol``-small but not smooth in the data (single-precision
     round-off): an equilibrium that ends on it differs from one solve to the next by up to the
-    tolerance. With the last direction refined, what is left of it is contracted like a refined
-    Newton step's, and ``M(Λ)`` is as smooth as with refined steps throughout, which LM's
-    convergence tests need (``docs/benchmarks.md``, "Inexact Newton steps").
+    tolerance, enough to spoil central differences of M(Λ) at steps of 1e-5 (1e-6 of the
+    Jacobian, against 6e-9 with the last direction refined) and to make LM's end game take more
+    evaluations (``docs/benchmarks.md``, "Inexact Newton steps"). A double-precision factor's
+    direction is refined already.
     """
     g_new = problem.gradient(z)
-    if not _norm(g_new) <= tolerance:
+    if not _norm(g_new) <= tolerance or not factor.mixed:
         return z, energy, g_new
     try:
         d = -factor.solve(g)
@@ -271,7 +273,10 @@ def _refined_if_last(problem, factor, z0, g, step, z, energy, tolerance):
         return z, energy, g_new
     refined = z0 + step * d
     value = problem.value(refined) if np.all(np.isfinite(refined)) else np.inf
-    return (refined, value, None) if np.isfinite(value) else (z, energy, g_new)
+    if not np.isfinite(value):
+        return z, energy, g_new
+    g_refined = problem.gradient(refined)
+    return (refined, value, g_refined) if _norm(g_refined) <= tolerance else (z, energy, g_new)
 
 
 class _Shifts:
@@ -321,7 +326,8 @@ def _fresh_step(problem, z, energy, g, g_norm, pattern, avoid_saddles, shifts=No
             accepted = _line_search(problem, z, d, energy, g, g_norm, expand=True)
             if accepted is not None:
                 return accepted, f"shift{sigma:g}", exact, tried
-        shifts.failed(factor.negative_pivots)
+        if factor.negative_pivots:                                   # (a definite K whose step failed: not a verdict)
+            shifts.failed(factor.negative_pivots)
     for mode in ("project", "shift"):
         tried += 1
         K = hessian(z, project=True)

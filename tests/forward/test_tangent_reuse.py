@@ -27,7 +27,7 @@ def test_the_tangent_of_the_last_equilibrium_is_the_inertia_checks_factor_and_eq
     solution = model.solve(params, standing)
     model.solve(params, fours)                                  # another posture factorises in between
     problem, factor = model.tangent(params, standing, solution.position)
-    assert factor is model._tangents["standing"][2]             # the inertia check's factor, not a new one
+    assert factor is model._tangents["standing"][-1]            # the inertia check's factor, not a new one
     assert factor._pattern.handle(factor.mixed).owner == factor._token   # its numeric factor survived fours
     rhs = np.random.default_rng(0).standard_normal((problem.assembler.n_free, 3))
     np.testing.assert_array_equal(factor.solve(rhs), _fresh_tangent(model, params, standing,
@@ -39,11 +39,13 @@ def test_the_kept_factor_is_not_used_at_another_state_or_other_parameters():
     params = Parameters()
     standing = paper_postures()[0]
     solution = model.solve(params, standing)
-    kept = model._tangents["standing"][2]
+    kept = model._tangents["standing"][-1]
     moved = solution.position + 1e-9
     assert model.tangent(params, standing, moved)[1] is not kept
     assert model.tangent(params.replace(mu_breast=params.mu_breast * 1.01), standing, solution.position)[1] is not kept
     assert model.tangent(params, standing, solution.position)[1] is kept
+    model.release_tangents()
+    assert model.tangent(params, standing, solution.position)[1] is not kept
 
 
 def test_the_implicit_jacobian_is_unchanged_by_the_reuse(monkeypatch):
