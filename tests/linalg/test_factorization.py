@@ -23,14 +23,18 @@ def _relative_residual(K, x, b):
     return np.linalg.norm(b - K @ x) / np.linalg.norm(b)
 
 
-def test_mixed_precision_solve_is_refined_to_double_accuracy(small_box, rng):
+def _box_system(small_box, rng):
+    """A deformed box's bulk Hessian (bottom fixed), its assembler and a random right-hand side."""
     nodes, tets, top, bottom = small_box
-    bulk = BulkNeoHookean(nodes, tets, 1000.0, 150.0)
     free = np.ones(nodes.shape, bool)
     free[bottom.ravel()] = False
     assembler = FreeDofAssembler([tets], free)
-    K = assembler.assemble_terms([bulk], deformed(nodes, rng))
-    b = rng.standard_normal(K.shape[0])
+    K = assembler.assemble_terms([BulkNeoHookean(nodes, tets, 1000.0, 150.0)], deformed(nodes, rng))
+    return K, assembler, rng.standard_normal(K.shape[0])
+
+
+def test_mixed_precision_solve_is_refined_to_double_accuracy(small_box, rng):
+    K, assembler, b = _box_system(small_box, rng)
     double = Factorization(K, assembler.pattern, mixed=False)
     mixed = Factorization(K, assembler.pattern, mixed=True)
     x = mixed.solve(b)
@@ -96,13 +100,7 @@ def test_mixed_precision_threshold_must_be_a_non_negative_integer(bad):
 
 def test_a_loose_rtol_stops_the_refinement_as_soon_as_the_residual_meets_it(small_box, rng):
     """``solve(b, rtol)``: an inexact Newton direction needs ‖b − Kx‖ ≤ rtol ‖b‖, not double accuracy."""
-    nodes, tets, top, bottom = small_box
-    bulk = BulkNeoHookean(nodes, tets, 1000.0, 150.0)
-    free = np.ones(nodes.shape, bool)
-    free[bottom.ravel()] = False
-    assembler = FreeDofAssembler([tets], free)
-    K = assembler.assemble_terms([bulk], deformed(nodes, rng))
-    b = rng.standard_normal(K.shape[0])
+    K, assembler, b = _box_system(small_box, rng)
     first = _relative_residual(K, Factorization(K, assembler.pattern, mixed=True)._solve_factor(b), b)
     assert factorization.REFINEMENT_RTOL < first < 1e-3            # single precision alone: between the two
     loose = Factorization(K, assembler.pattern, mixed=True)
