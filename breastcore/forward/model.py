@@ -51,7 +51,7 @@ class ForwardModel:
         self.map = CapMap(mesh)
         self._assemblers = {}
         self._patterns = {}                   # (fold angle, posture name) → that posture's pattern
-        self._tangents = {}                   # posture name → (problem, x, factor) of its last equilibrium
+        self._tangents = {}                   # posture → (params, load, δ, x, factor) of its last equilibrium
         self._geometries = collections.OrderedDict()
 
     def reference(self, R, H):
