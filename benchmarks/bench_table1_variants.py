@@ -15,13 +15,15 @@ other, so that a drift of the machine falls on all of them. A variant sets
 :class:`~breastcore.forward.options.SolverOptions` keys in the job's solver spec, for the
 identification's forward solves only (the truth is the workflow's):
 
-Every variant spells out all nine settings (``smoothing_start``, ``reuse_factor``, ``sliding_dual``,
+Every variant spells out all ten settings (``smoothing_start``, ``reuse_factor``, ``sliding_dual``,
 ``inertia_shift``, ``mixed_precision_min_dofs``, ``step_rtol``, ``skip_futile_shifts``, the smoothing δ,
-``reduced_snapshots``), so that its meaning does not move with the shipped defaults:
+``reduced_snapshots``, ``tangent_starts``), so that its meaning does not move with the shipped defaults:
 
-- ``default``: today's path (no δ phase, chord steps 0.5, reduced starts over 8 snapshots,
-  primal-dual sliding blocks, inertia shifts where they can help, single-precision factors,
-  inexact Newton directions);
+- ``default``: today's path (no δ phase, chord steps 0.5, tangent-predictor starts after each
+  Jacobian, reduced starts over 8 snapshots before the first, primal-dual sliding blocks,
+  inertia shifts where they can help, single-precision factors, inexact Newton directions);
+- ``no-tangent``: ``default`` without the tangent-predictor starts (``tangent_starts = False``),
+  the default path from fd093bc to 0ec3832;
 - ``exact-steps``: the default path of 2026-12-02: ``default`` with exact-Hessian steps, the
   PSD projection and double-precision factors on the paper's levels;
 - ``before-21``: the path before issue #21: the gravity ramp at δ = 1e-4 m then a δ
@@ -47,7 +49,7 @@ Every variant spells out all nine settings (``smoothing_start``, ``reuse_factor`
 - ``refined-steps``: the default path of 2026-12-03 (6827140 to 7915c56): every Newton direction
   refined to 1e-10 (``step_rtol``) and the inertia shifts tried at every indefinite step;
 - ``inexact``, ``skip-shifts``: ``refined-steps`` with ``step_rtol = 1e-3`` (inexact Newton
-  directions) or ``skip_futile_shifts``; both is ``default``.
+  directions) or ``skip_futile_shifts``; both is ``no-tangent``.
 
 The first variant of ``--variants`` is the reference (default: ``before-21``).
 Per job it prints the time, LM iterations, forward solves, the mean |estimate/truth − 1|
@@ -84,27 +86,30 @@ NEW = {"smoothing_start": 1e-6, "reuse_factor": 0.5, "sliding_dual": True, "iner
 REFINED = {**NEW, "step_rtol": 1e-10, "skip_futile_shifts": False}
 #: The default path of 2026-12-02: exact-Hessian steps, the PSD projection, double precision.
 EXACT = {**REFINED, "sliding_dual": False, "inertia_shift": False, "mixed_precision_min_dofs": 100_000}
-COLD = {"reduced_snapshots": 0}
+COLD = {"reduced_snapshots": 0, "tangent_starts": False}
+#: Reduced starts over 8 snapshots without the tangent predictor (the default up to 0ec3832).
+REDUCED8 = {"reduced_snapshots": 8, "tangent_starts": False}
 #: Variant name → (SolverOptions keys, model constants, IdentificationOptions keys) of the identification.
 VARIANTS = {
-    "default": (NEW, {}, {"reduced_snapshots": 8}),
+    "default": (NEW, {}, {"reduced_snapshots": 8, "tangent_starts": True}),
+    "no-tangent": (NEW, {}, REDUCED8),
     "before-21": (BEFORE, {}, COLD),
     "chord0.5": ({**BEFORE, "reuse_factor": 0.5}, {}, COLD),
     "no-delta-phase": ({**BEFORE, "smoothing_start": 1e-6}, {}, COLD),
     "no-delta-phase+chord0.5": (EXACT, {}, COLD),
     "delta1e-5": (BEFORE, {"smoothing": 1e-5}, COLD),
     "delta1e-4": (BEFORE, {"smoothing": 1e-4}, COLD),
-    "reduced4": (BEFORE, {}, {"reduced_snapshots": 4}),
-    "reduced8": (BEFORE, {}, {"reduced_snapshots": 8}),
-    "reduced8+no-delta-phase+chord0.5": (EXACT, {}, {"reduced_snapshots": 8}),
-    "exact-steps": (EXACT, {}, {"reduced_snapshots": 8}),
-    "dual": ({**EXACT, "sliding_dual": True}, {}, {"reduced_snapshots": 8}),
-    "shift": ({**EXACT, "inertia_shift": True}, {}, {"reduced_snapshots": 8}),
-    "dual+shift": ({**EXACT, "sliding_dual": True, "inertia_shift": True}, {}, {"reduced_snapshots": 8}),
-    "mixed": ({**EXACT, "mixed_precision_min_dofs": 0}, {}, {"reduced_snapshots": 8}),
-    "refined-steps": (REFINED, {}, {"reduced_snapshots": 8}),
-    "inexact": ({**REFINED, "step_rtol": 1e-3}, {}, {"reduced_snapshots": 8}),
-    "skip-shifts": ({**REFINED, "skip_futile_shifts": True}, {}, {"reduced_snapshots": 8}),
+    "reduced4": (BEFORE, {}, {"reduced_snapshots": 4, "tangent_starts": False}),
+    "reduced8": (BEFORE, {}, REDUCED8),
+    "reduced8+no-delta-phase+chord0.5": (EXACT, {}, REDUCED8),
+    "exact-steps": (EXACT, {}, REDUCED8),
+    "dual": ({**EXACT, "sliding_dual": True}, {}, REDUCED8),
+    "shift": ({**EXACT, "inertia_shift": True}, {}, REDUCED8),
+    "dual+shift": ({**EXACT, "sliding_dual": True, "inertia_shift": True}, {}, REDUCED8),
+    "mixed": ({**EXACT, "mixed_precision_min_dofs": 0}, {}, REDUCED8),
+    "refined-steps": (REFINED, {}, REDUCED8),
+    "inexact": ({**REFINED, "step_rtol": 1e-3}, {}, REDUCED8),
+    "skip-shifts": ({**REFINED, "skip_futile_shifts": True}, {}, REDUCED8),
 }
 SCENES = {"cross": "paper_table1", "same": "paper_table1_same"}
 

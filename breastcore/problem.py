@@ -82,16 +82,17 @@ class ProblemSpec:
         """Raise ProblemSpecError unless the measurement model ``mm`` is the one this spec builds.
 
         A dataset that records this spec must have been computed with it: constants,
-        solver options, postures, measurement set, warm-start radius and reduced-start snapshots. The spec must
+        solver options, postures, measurement set, warm-start radius, reduced-start snapshots and tangent starts. The spec must
         have identification options (the radius is theirs; ProblemSpecError otherwise).
         """
         radius = self.warm_radius()
         found = {"parameters": mm.base, "solver": mm.model.options, "postures": tuple(mm.postures),
                  "measurement_set": mm.measurement_set, "warm_radius": mm.warm_radius,
-                 "reduced_snapshots": mm.reduced_snapshots}
+                 "reduced_snapshots": mm.reduced_snapshots, "tangent_starts": mm.tangent_starts}
         wanted = {"parameters": self.parameters, "solver": self.solver, "postures": self.postures,
                   "measurement_set": self.measurement_set, "warm_radius": radius,
-                  "reduced_snapshots": self.identification.reduced_snapshots}
+                  "reduced_snapshots": self.identification.reduced_snapshots,
+                  "tangent_starts": self.identification.tangent_starts}
         wrong = [k for k in wanted if found[k] != wanted[k]]
         if wrong:
             raise ProblemSpecError(f"the measurement model differs from the problem spec in {', '.join(wrong)}")
@@ -157,7 +158,8 @@ class ProblemSpec:
 #: inertia shifts tried at every indefinite step.
 ADDED_FIELDS = {"SolverOptions": {"reuse_factor": 0.0, "sliding_dual": False, "inertia_shift": False,
                                   "mixed_precision_min_dofs": 100_000, "step_rtol": 1e-10,
-                                  "skip_futile_shifts": False}}
+                                  "skip_futile_shifts": False},
+                "IdentificationOptions": {"tangent_starts": False}}
 
 
 def _exact(kind, values) -> dict:

@@ -11,7 +11,9 @@ class _NoForwardModel:
 
 
 class _NoWarmStarts:
-    """Its solves need no start; a policy that remembers nothing."""
+    """Its solves need no start; a policy that remembers nothing (no tangent predictor either)."""
+
+    tangent_starts = False
 
     def remember(self, solutions, values):
         pass

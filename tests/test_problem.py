@@ -35,7 +35,7 @@ SOLVER = dict(method="newton", rtol=1e-7, stage_rtol=2e-5, smoothing_start=2e-4,
               mixed_precision_min_dofs=5000, step_rtol=1e-4, skip_futile_shifts=False)
 IDENTIFICATION = dict(method="lm", jacobian="implicit", fd_step=2e-4, cost_tol=1e-13, cost_rtol=0.01, xtol=1e-7,
                       ftol=1e-7, gtol=1e-9, max_iterations=3, noise=0.05, initial_trust_radius=0.4,
-                      fixed_iterations=False, warm_radius=0.07, reduced_snapshots=3)
+                      fixed_iterations=False, warm_radius=0.07, reduced_snapshots=3, tangent_starts=False)
 POSTURES = [{"name": "standing", "angle": 0.0}, {"name": "lean", "angle": 30.0}, {"name": "fours", "angle": 90.0}]
 
 
@@ -112,6 +112,17 @@ def test_a_spec_written_before_the_inexact_steps_reads_with_refined_steps_and_ev
     assert read == dataclasses.replace(spec, solver=dataclasses.replace(
         spec.solver, step_rtol=1e-10, skip_futile_shifts=False))
     assert spec.solver.step_rtol == 1e-4 and spec.solver.skip_futile_shifts
+
+
+def test_a_spec_written_before_the_tangent_starts_reads_without_them():
+    """Identifications written before ``tangent_starts`` started far solves without the predictor."""
+    spec = non_default_spec()
+    spec = dataclasses.replace(spec, identification=dataclasses.replace(spec.identification, tangent_starts=True))
+    data = spec.as_dict()
+    del data["identification"]["tangent_starts"]
+    read = ProblemSpec.from_dict(data)
+    assert read == dataclasses.replace(spec, identification=dataclasses.replace(
+        spec.identification, tangent_starts=False))
 
 
 def test_a_dataset_without_a_spec_names_its_stage():
@@ -197,6 +208,7 @@ def test_identification_records_and_rebuilds_exactly_its_problem(stages):
     problem.check_model(mm)
     assert mm.warm_radius == 0.07 and mm.model.options == SolverOptions(**SOLVER)
     assert mm.reduced_snapshots == 3 and mm.warm_starts().snapshots == 3
+    assert mm.tangent_starts is False and mm.warm_starts().tangent_starts is False
     assert mm.base.chassaignac == 300.0 and mm.base.smoothing == 1e-5 and mm.measurement_set == "exact"
     np.testing.assert_array_equal(mm.model.mesh.nodes, mesh_level("coarse").nodes)   # node for node
     np.testing.assert_array_equal(estimate, ds["estimate"].values)

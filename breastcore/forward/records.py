@@ -71,7 +71,8 @@ class PostureSolution:
     negative_pivots: int | None = None
     #: Whether the solve started from the reference state (None: not recorded; see MeasurementModel.solve).
     cold_start: bool | None = None
-    #: ``(Λ, rows)``: the implicit-Jacobian rows of this posture at Λ, if a worker computed them.
+    #: ``(Λ, rows, ∂x/∂Λ)``: the implicit-Jacobian rows of this posture at Λ, and its (N, 3, 6)
+    #: tangent, if a worker computed them.
     jacobian_rows: tuple | None = None
 
     @property

@@ -32,10 +32,17 @@ def relative_jacobian(mm, values, solutions, options, warm):
     """``∂M/∂Λ · Λ / M̄``-ready Jacobian ``∂M/∂Λ`` (posture, quantity, 6), SI.
 
     The forward differences' solves start from ``solutions``, which ``warm`` then
-    remembers (they are where the next step starts from).
+    remembers (they are where the next step starts from). The implicit Jacobian's
+    ``∂x/∂Λ`` go to ``warm`` (:meth:`~breastcore.inverse.warm_start.WarmStarts.remember_tangents`),
+    which uses them if it remembers ``solutions`` at ``values`` and has ``tangent_starts``.
     """
     if options.jacobian == "implicit":
-        return mm.implicit_jacobian(values, solutions)
+        if not warm.tangent_starts:
+            return mm.implicit_jacobian(values, solutions)
+        tangents = {}
+        dM = mm.implicit_jacobian(values, solutions, tangents=tangents)
+        warm.remember_tangents(values, tangents)
+        return dM
     dM = mm.fd_jacobian(values, solutions, options.fd_step)
     warm.remember(solutions, values)
     return dM
@@ -96,6 +103,9 @@ def identify(mm, target, initial, options=IdentificationOptions(), weights=None,
     if getattr(mm, "reduced_snapshots", options.reduced_snapshots) != options.reduced_snapshots:
         raise ValueError(f"the measurement model's reduced_snapshots ({mm.reduced_snapshots}) is not the "
                          f"options' ({options.reduced_snapshots}): build it with MeasurementModel.from_problem")
+    if getattr(mm, "tangent_starts", options.tangent_starts) != options.tangent_starts:
+        raise ValueError(f"the measurement model's tangent_starts ({mm.tangent_starts}) is not the "
+                         f"options' ({options.tangent_starts}): build it with MeasurementModel.from_problem")
     target = np.asarray(target, float)
     w = np.ones_like(target) if weights is None else np.asarray(weights, float)
     refusal = too_few_weighted(w, len(initial))

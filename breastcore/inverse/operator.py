@@ -61,11 +61,16 @@ class MeasurementModel:
         :class:`~breastcore.inverse.options.IdentificationOptions`, 8): they start from
         :func:`~breastcore.forward.reduced.reduced_start` over the last n remembered
         equilibria of the :class:`WarmStarts` passed in (cold while it has none).
+    tangent_starts : bool
+        The ``tangent_starts`` of the :class:`WarmStarts` that :meth:`warm_starts` makes
+        (default: that of :class:`~breastcore.inverse.options.IdentificationOptions`, True):
+        after a Jacobian, solves start from the first-order predictor ``x⁰ + ∂x/∂Λ (Λ − Λ⁰)``.
     """
 
     def __init__(self, model: ForwardModel, base: Parameters, postures, measurement_set="paper15",
                  warm_radius=IdentificationOptions.warm_radius, processes=1,
-                 reduced_snapshots=IdentificationOptions.reduced_snapshots):
+                 reduced_snapshots=IdentificationOptions.reduced_snapshots,
+                 tangent_starts=IdentificationOptions.tangent_starts):
         self.model = model
         self.base = base
         self.postures = tuple(postures)
@@ -76,6 +81,7 @@ class MeasurementModel:
             raise ValueError(f"processes must be ≥ 1, got {processes!r}")
         self.processes = int(processes)
         self.reduced_snapshots = int(reduced_snapshots)
+        self.tangent_starts = bool(tangent_starts)
         self.solves = 0                                  # a counter of forward solves, for the record
 
     @classmethod
@@ -96,14 +102,15 @@ class MeasurementModel:
             raise ValueError("the forward model's solver options are not the problem's")
         return cls(model, problem.parameters, problem.postures, problem.measurement_set,
                    warm_radius=warm_radius, processes=processes,
-                   reduced_snapshots=problem.identification.reduced_snapshots)
+                   reduced_snapshots=problem.identification.reduced_snapshots,
+                   tangent_starts=problem.identification.tangent_starts)
 
     def params(self, values) -> Parameters:
         return self.base.with_identified(values)
 
     def warm_starts(self) -> WarmStarts:
         """An empty warm-start policy of this model's radius (the first solve is cold)."""
-        return WarmStarts(self.warm_radius, self.reduced_snapshots)
+        return WarmStarts(self.warm_radius, self.reduced_snapshots, self.tangent_starts)
 
     def solve(self, values, warm: WarmStarts | None = None, jacobian=False):
         """Equilibria of all postures at ``Λ = values``, from ``warm``'s starts (cold without). Raises SolveError.
@@ -117,13 +124,15 @@ class MeasurementModel:
         """
         params = self.params(values)
         starts = warm.starts(values, self.postures) if warm is not None else {p.name: None for p in self.postures}
+        if warm is not None and warm.tangents:
+            starts = self._admissible_starts(params, starts, warm.starts(values, self.postures, predict=False))
         if warm is not None and warm.history:
             starts = self._reduced_starts(params, starts, warm.history)
         if self.processes > 1:
             at = np.array(values, dtype=float)
 
             def rows(posture, solution):
-                return {"jacobian_rows": (at, self._posture_jacobian(params, at, posture, solution.position))}
+                return {"jacobian_rows": (at, *self._posture_jacobian(params, at, posture, solution.position))}
 
             solved = self.model.solve_postures(params, self.postures, starts, self.processes,
                                                rows if jacobian else None)
@@ -135,6 +144,17 @@ class MeasurementModel:
                 solutions[posture.name] = self.model.solve(params, posture, starts[posture.name])
                 self.solves += 1
         return {name: dataclasses.replace(s, cold_start=starts[name] is None) for name, s in solutions.items()}
+
+    def _admissible_starts(self, params, predicted, fallback):
+        """``predicted``, each start whose energy is not finite (an inverted tet) replaced by ``fallback``'s."""
+        out = dict(predicted)
+        for posture in self.postures:
+            x = out[posture.name]
+            if x is not None and x is not fallback[posture.name]:
+                problem = self.model.problem(params, posture)
+                if not np.isfinite(problem.value(problem.free(x))):
+                    out[posture.name] = fallback[posture.name]
+        return out
 
     def _reduced_starts(self, params, starts, history):
         """``starts`` with each missing (cold) one replaced by the reduced-space start over ``history``."""
@@ -166,8 +186,11 @@ class MeasurementModel:
             rows.append([values[q] for q in self.quantities])
         return np.array(rows)
 
-    def implicit_jacobian(self, values, solutions, rel_step=1e-6) -> np.ndarray:
+    def implicit_jacobian(self, values, solutions, rel_step=1e-6, tangents=None) -> np.ndarray:
         """``∂M/∂Λ_j``, shape ``(posture, quantity, 6)``, in SI units per parameter unit.
+
+        ``tangents``: a dict that, if given, receives ``{posture name: ∂x/∂Λ}``, each
+        ``(N, 3, 6)`` in m per parameter unit (the equilibrium's derivative, fixed dofs included).
 
         Notes
         -----
@@ -188,13 +211,16 @@ class MeasurementModel:
             solution = solutions[posture.name]
             cached = solution.jacobian_rows
             if cached is not None and np.array_equal(cached[0], np.asarray(values, dtype=float)):
-                out[i] = cached[1]                                  # computed by the worker that solved it
+                out[i], tangent = cached[1], cached[2]              # computed by the worker that solved it
             else:
-                out[i] = self._posture_jacobian(params, values, posture, solution.position, rel_step)
+                out[i], tangent = self._posture_jacobian(params, values, posture, solution.position, rel_step)
+            if tangents is not None:
+                tangents[posture.name] = tangent
         return out
 
     def _posture_jacobian(self, params, values, posture, x, rel_step=1e-6):
-        """One posture's ``(quantity, 6)`` block of :meth:`implicit_jacobian` at equilibrium ``x``.
+        """One posture's ``(quantity, 6)`` block of :meth:`implicit_jacobian` at equilibrium ``x``, and
+        ``∂x/∂Λ``, ``(N, 3, 6)``.
 
         The six right-hand sides ``∂g/∂p_j`` are solved together, one multi-column solve with
         the factorised ``K``.
@@ -221,7 +247,7 @@ class MeasurementModel:
         for j, dx in enumerate(moved):
             dx[free] = -solved[:, j]
             out[:, j] = self._directional(x, dx)
-        return out
+        return out, np.stack(moved, axis=-1)
 
     def _directional(self, x, dx):
         scale = 1e-7 / max(np.abs(dx).max(), 1e-300)                # a 0.1 µm move of the fastest node

@@ -66,6 +66,13 @@ class IdentificationOptions:
         branch check then compares the estimate with a cold solve.) Like any start, it can
         change which equilibrium a far trial point reaches; the branch check guards the
         estimate.
+    tangent_starts : bool
+        With ``warm_radius > 0`` and the implicit Jacobian: after each Jacobian, start every
+        solve, near or far, from the first-order predictor ``x⁰ + ∂x/∂Λ (Λ − Λ⁰)`` of the
+        equilibria x⁰ at the Jacobian's Λ⁰ (a predictor that inverts a tet is dropped for the
+        starts above). ``∂x/∂Λ`` is the Jacobian's own intermediate result. Default True;
+        False: the starts of ``warm_radius`` and ``reduced_snapshots`` only, the method before
+        it (:class:`~breastcore.inverse.warm_start.WarmStarts`).
     """
 
     method: str = "lm"
@@ -82,6 +89,7 @@ class IdentificationOptions:
     fixed_iterations: bool = False
     warm_radius: float = 0.05
     reduced_snapshots: int = 8
+    tangent_starts: bool = True
 
     def __post_init__(self):
         if self.method not in ("lm", "gauss-newton"):
@@ -96,5 +104,7 @@ class IdentificationOptions:
             raise ValueError(f"warm_radius must be finite and ≥ 0, got {self.warm_radius!r}")
         if int(self.reduced_snapshots) != self.reduced_snapshots or self.reduced_snapshots < 0:
             raise ValueError(f"reduced_snapshots must be an integer ≥ 0, got {self.reduced_snapshots!r}")
+        if not isinstance(self.tangent_starts, (bool, np.bool_)):
+            raise ValueError(f"tangent_starts must be True or False, got {self.tangent_starts!r}")
         if self.fixed_iterations and self.method != "gauss-newton":
             raise ValueError("fixed_iterations applies to method 'gauss-newton' only")

@@ -26,14 +26,29 @@ class WarmStarts:
         Keep the last this many remembered equilibria in ``history`` (0: none), for the
         reduced-space start of solves beyond ``radius``
         (:func:`~breastcore.forward.reduced.reduced_start`).
+    tangent_starts : bool
+        With ``radius > 0``: once :meth:`remember_tangents` has given the equilibria's
+        derivatives ``∂x/∂Λ`` at the remembered Λ⁰, a solve at any Λ starts from the
+        first-order predictor ``x⁰ + ∂x/∂Λ (Λ − Λ⁰)`` (a parameter-continuation Euler
+        step), within ``radius`` or beyond it. Without them, the starts above.
+
+    Notes
+    -----
+    The predictor costs nothing extra in an identification with the implicit Jacobian:
+    ``∂x/∂Λ_j = −K⁻¹ ∂g/∂Λ_j`` is the intermediate result of each Jacobian
+    (:meth:`~breastcore.inverse.operator.MeasurementModel.implicit_jacobian`), and LM's
+    trial points are steps from the point where it was taken. The measurement model replaces
+    a predictor that inverts a tet by the start without it (``starts(..., predict=False)``).
     """
 
-    def __init__(self, radius: float, snapshots: int = 0):
+    def __init__(self, radius: float, snapshots: int = 0, tangent_starts: bool = False):
         self.radius = float(radius)
         self.values = None
         self.positions = {}
         self.snapshots = int(snapshots)
         self.history = []                   # the last ``snapshots`` remembered (Λ, positions), oldest first
+        self.tangent_starts = bool(tangent_starts)
+        self.tangents = {}                  # {posture name: (N, 3, 6) ∂x/∂Λ} at ``values``, or empty
 
     @classmethod
     def at(cls, radius, solutions, values) -> "WarmStarts":
@@ -44,13 +59,37 @@ class WarmStarts:
 
     def remember(self, solutions, values) -> None:
         """Start the next solves from these equilibria, at ``Λ = values``."""
+        values = np.array(values, dtype=float)
+        if self.values is None or not np.array_equal(values, self.values):
+            self.tangents = {}                                     # they belong to the old Λ⁰
         self.positions = {name: s.position for name, s in solutions.items()}
-        self.values = np.array(values, dtype=float)
+        self.values = values
         if self.snapshots:
             self.history = (self.history + [(self.values, self.positions)])[-self.snapshots:]
 
-    def starts(self, values, postures) -> dict:
-        """``{posture name: (N, 3) start or None}`` for a solve at ``values``."""
-        near = self.values is not None and \
-            np.max(np.abs(np.asarray(values) / self.values - 1.0)) <= self.radius
-        return {p.name: self.positions.get(p.name) if near else None for p in postures}
+    def remember_tangents(self, values, tangents) -> None:
+        """Predict the next starts with ``tangents`` ({posture name: (N, 3, 6) ``∂x/∂Λ``, m per
+        parameter unit}), the derivatives of the remembered equilibria at ``values``.
+
+        Ignored unless ``tangent_starts`` and ``radius > 0``, and unless ``values`` is the
+        remembered Λ⁰ (the tangents of another point would predict from the wrong state).
+        """
+        if self.tangent_starts and self.radius > 0 and self.values is not None and \
+                np.array_equal(np.asarray(values, dtype=float), self.values):
+            self.tangents = {name: np.asarray(t, dtype=float) for name, t in tangents.items()}
+
+    def starts(self, values, postures, predict=True) -> dict:
+        """``{posture name: (N, 3) start or None}`` for a solve at ``values``; with ``predict=False``,
+        the starts without the tangent predictor."""
+        if self.values is None:
+            return {p.name: None for p in postures}
+        step = np.asarray(values, dtype=float) - self.values
+        near = np.max(np.abs(step / self.values)) <= self.radius
+        out = {}
+        for p in postures:
+            tangent = self.tangents.get(p.name)
+            if predict and tangent is not None and p.name in self.positions:
+                out[p.name] = self.positions[p.name] + tangent @ step
+            else:
+                out[p.name] = self.positions.get(p.name) if near else None
+        return out
