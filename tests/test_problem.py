@@ -125,6 +125,17 @@ def test_a_spec_written_before_the_tangent_starts_reads_without_them():
         spec.identification, tangent_starts=False))
 
 
+@pytest.mark.parametrize("field, other", [("warm_radius", 0.05), ("reduced_snapshots", 8), ("tangent_starts", True)])
+def test_check_model_refuses_a_measurement_model_built_with_other_identification_options(field, other):
+    spec = non_default_spec()
+    mm = MeasurementModel.from_problem(spec, mesh_level("coarse"))
+    spec.check_model(mm)                                          # the model the spec builds passes
+    assert getattr(mm, field) != other
+    setattr(mm, field, other)
+    with pytest.raises(ProblemSpecError, match=field):
+        spec.check_model(mm)
+
+
 def test_a_dataset_without_a_spec_names_its_stage():
     import xarray as xr
     with pytest.raises(ProblemSpecError, match="stage 'identify'"):

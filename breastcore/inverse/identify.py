@@ -34,7 +34,8 @@ def relative_jacobian(mm, values, solutions, options, warm):
     The forward differences' solves start from ``solutions``, which ``warm`` then
     remembers (they are where the next step starts from). The implicit Jacobian's
     ``∂x/∂Λ`` go to ``warm`` (:meth:`~breastcore.inverse.warm_start.WarmStarts.remember_tangents`),
-    which uses them if it remembers ``solutions`` at ``values`` and has ``tangent_starts``.
+    which uses them if it has ``tangent_starts`` and remembers ``values`` (the caller's
+    ``solutions`` being the equilibria it remembers there: LM and Gauss–Newton remember them first).
     """
     if options.jacobian == "implicit":
         if not warm.tangent_starts:

@@ -57,12 +57,14 @@ class IdentificationOptions:
     warm_radius : float
         Warm-start a forward solve only from equilibria whose Λ is within this
         relative distance (max over the six parameters) of the new Λ; farther away,
-        solve cold (:class:`~breastcore.inverse.operator.MeasurementModel`). 0 turns warm
-        starts between different Λ off, and with them the branch check.
+        solve cold (:class:`~breastcore.inverse.operator.MeasurementModel`), unless a
+        reduced or tangent start below applies. 0 turns warm starts between different Λ
+        off (tangent starts too), and with them the branch check.
     reduced_snapshots : int
         n > 0: start a solve beyond ``warm_radius`` from the energy's minimiser over the span of
-        the displacements of the last n remembered equilibria, not cold; 0: cold, the method
-        before issue #21. Default 8. (:func:`~breastcore.forward.reduced.reduced_start`; the
+        the displacements of the last n remembered equilibria, not cold; 0: cold (with
+        ``tangent_starts`` False, the method before issue #21). Default 8. With ``tangent_starts``
+        it serves only solves with no tangent at hand. (:func:`~breastcore.forward.reduced.reduced_start`; the
         branch check then compares the estimate with a cold solve.) Like any start, it can
         change which equilibrium a far trial point reaches; the branch check guards the
         estimate.

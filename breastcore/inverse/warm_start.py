@@ -18,8 +18,8 @@ class WarmStarts:
     ----------
     radius : float
         Warm-start only where ``max_j |Λ_j / Λ⁰_j − 1| ≤ radius`` (Λ⁰ the remembered Λ);
-        farther, and with nothing remembered, the solve is cold. 0: warm starts only
-        at the same Λ. (The standing posture has more than one local equilibrium: a
+        farther, and with nothing remembered, the solve is cold (unless ``tangent_starts``
+        applies). 0: warm starts only at the same Λ, and no tangent starts. (The standing posture has more than one local equilibrium: a
         warm start from far away can land on another branch than the cold path that
         defines ``M(Λ)``.)
     snapshots : int
@@ -60,9 +60,12 @@ class WarmStarts:
     def remember(self, solutions, values) -> None:
         """Start the next solves from these equilibria, at ``Λ = values``."""
         values = np.array(values, dtype=float)
-        if self.values is None or not np.array_equal(values, self.values):
-            self.tangents = {}                                     # they belong to the old Λ⁰
-        self.positions = {name: s.position for name, s in solutions.items()}
+        positions = {name: s.position for name, s in solutions.items()}
+        same = self.values is not None and np.array_equal(values, self.values) and \
+            positions.keys() == self.positions.keys() and all(positions[k] is self.positions[k] for k in positions)
+        if not same:
+            self.tangents = {}      # they are the derivatives of the old equilibria (another Λ⁰, or another branch)
+        self.positions = positions
         self.values = values
         if self.snapshots:
             self.history = (self.history + [(self.values, self.positions)])[-self.snapshots:]
@@ -72,7 +75,9 @@ class WarmStarts:
         parameter unit}), the derivatives of the remembered equilibria at ``values``.
 
         Ignored unless ``tangent_starts`` and ``radius > 0``, and unless ``values`` is the
-        remembered Λ⁰ (the tangents of another point would predict from the wrong state).
+        remembered Λ⁰ (the tangents of another point would predict from the wrong state). The
+        caller gives the tangents of the remembered equilibria; :meth:`remember` drops them when
+        it remembers other equilibria, even at the same Λ (a cold re-solve on another branch).
         """
         if self.tangent_starts and self.radius > 0 and self.values is not None and \
                 np.array_equal(np.asarray(values, dtype=float), self.values):

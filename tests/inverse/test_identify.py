@@ -178,8 +178,15 @@ def test_jacobian_rows_from_the_workers_equal_the_serial_jacobian(problem, monke
     solutions = parallel.solve(values, jacobian=True)
     serial = MeasurementModel(mm.model, Parameters(), paper_postures()).implicit_jacobian(values, solutions | {
         name: dataclasses.replace(s, jacobian_rows=None) for name, s in solutions.items()})     # no cached rows
+    serial_tangents, parallel_tangents = {}, {}
+    MeasurementModel(mm.model, Parameters(), paper_postures()).implicit_jacobian(values, solutions | {
+        name: dataclasses.replace(s, jacobian_rows=None) for name, s in solutions.items()}, tangents=serial_tangents)
     monkeypatch.setattr(MeasurementModel, "_posture_jacobian", lambda *a, **k: pytest.fail("not reused"))
-    np.testing.assert_allclose(parallel.implicit_jacobian(values, solutions), serial, rtol=1e-12, atol=0)
+    np.testing.assert_allclose(parallel.implicit_jacobian(values, solutions, tangents=parallel_tangents), serial,
+                               rtol=1e-12, atol=0)
+    assert parallel_tangents.keys() == serial_tangents.keys() == {p.name for p in paper_postures()}
+    for name, tangent in serial_tangents.items():             # the workers' ∂x/∂Λ, for the tangent starts
+        np.testing.assert_allclose(parallel_tangents[name], tangent, rtol=0, atol=1e-12 * np.abs(tangent).max())
     with pytest.raises(pytest.fail.Exception):                  # rows at other Λ are not reused
         parallel.implicit_jacobian(values * 1.01, solutions)
 

@@ -77,22 +77,34 @@ def test_the_start_is_the_first_order_predictor_near_and_far(distance):
         assert (without[name] is positions[name]) if distance < 0.05 else without[name] is None
 
 
-@pytest.mark.parametrize("case", ["option off", "radius 0", "other point", "moved on"])
+@pytest.mark.parametrize("case", ["option off", "radius 0", "other point", "moved on", "other branch"])
 def test_tangents_are_not_used_where_they_do_not_belong(case):
     warm, positions, tangents = _warm(tangent_starts=case != "option off", radius=0.0 if case == "radius 0" else 0.05)
     warm.remember_tangents(TRUTH * (1.01 if case == "other point" else 1.0), tangents)
-    if case == "moved on":              # new equilibria remembered: the old tangents predict from the wrong state
-        warm.remember({k: _Solution(v + 1) for k, v in positions.items()}, TRUTH * 1.02)
+    if case in ("moved on", "other branch"):    # new equilibria: the old tangents predict from the wrong state
+        assert warm.tangents != {}
+        warm.remember({k: _Solution(v + 1) for k, v in positions.items()}, TRUTH * (1.02 if case == "moved on" else 1))
     assert warm.tangents == {}
     values = warm.values * 1.001
     assert all(np.array_equal(s, warm.positions[n]) or s is None for n, s in warm.starts(values, POSTURES).items())
 
 
-def test_a_predictor_that_inverts_a_tet_is_replaced_by_the_start_without_it(coarse, monkeypatch):
+def test_the_same_equilibrium_remembered_again_keeps_its_tangents():
+    warm, positions, tangents = _warm()
+    warm.remember_tangents(TRUTH, tangents)
+    warm.remember({k: _Solution(v) for k, v in warm.positions.items()}, TRUTH)
+    assert warm.tangents.keys() == tangents.keys()
+
+
+@pytest.mark.parametrize("distance", [0.01, 0.3])
+def test_a_predictor_that_inverts_a_tet_is_replaced_by_the_start_without_it(coarse, monkeypatch, distance):
+    """Within the radius the fallback is the plain warm start; beyond it, the reduced-space start."""
     mm, solutions, tangents = coarse
     warm = mm.warm_starts()
     warm.remember(solutions, TRUTH)
     warm.remember_tangents(TRUTH, {name: 1e4 * t for name, t in tangents.items()})   # a wild predictor
+    values = TRUTH * (1 + distance)
+    wild = warm.starts(values, mm.postures)
     started = {}
     solve = mm.model.solve
 
@@ -101,33 +113,45 @@ def test_a_predictor_that_inverts_a_tet_is_replaced_by_the_start_without_it(coar
         return solve(params, posture, start)
 
     monkeypatch.setattr(mm.model, "solve", spy)
-    values = TRUTH * 1.01
     solved = mm.solve(values, warm)
-    for name, start in started.items():
-        assert start is solutions[name].position          # within the radius: the plain warm start
-        assert not solved[name].cold_start
+    for posture in mm.postures:
+        problem = mm.model.problem(mm.params(values), posture)
+        assert not np.isfinite(problem.value(problem.free(wild[posture.name])))      # the predictor inverts
+        start = started[posture.name]
+        if distance < mm.warm_radius:
+            assert start is solutions[posture.name].position
+        else:
+            assert start is not None and np.isfinite(problem.value(problem.free(start)))   # the reduced start
+        assert not solved[posture.name].cold_start
 
 
 def test_identification_with_tangent_starts_reaches_the_same_estimate_with_them_in_use(coarse, monkeypatch):
     mm, solutions, _ = coarse
     target = mm.measure(solutions)
     start = TRUTH * np.array([1.3, 0.75, 0.7, 1.3, 1.25, 0.7])
-    predicted = []
-    starts = WarmStarts.starts
+    predicted, used = [], []                  # ids of predicted starts; whether a solve started from one
+    starts, solve = WarmStarts.starts, mm.model.solve
 
-    def spy(self, values, postures, predict=True):
+    def spy_starts(self, values, postures, predict=True):
         out = starts(self, values, postures, predict)
-        predicted.append(predict and bool(self.tangents))
+        if predict and self.tangents:
+            predicted.extend(id(x) for x in out.values())
         return out
 
-    monkeypatch.setattr(WarmStarts, "starts", spy)
+    def spy_solve(params, posture, start=None):
+        used.append(start is not None and id(start) in predicted)
+        return solve(params, posture, start)
+
+    monkeypatch.setattr(WarmStarts, "starts", spy_starts)
+    monkeypatch.setattr(mm.model, "solve", spy_solve)
     estimates = {}
     for tangent_starts in (False, True):
         predicted.clear()
+        used.clear()
         model = MeasurementModel(mm.model, mm.base, mm.postures, tangent_starts=tangent_starts)
         result = identify(model, target, start, IdentificationOptions(tangent_starts=tangent_starts))
         assert result.success
-        assert any(predicted) == tangent_starts
+        assert any(used) == tangent_starts
         estimates[tangent_starts] = result.estimate
     assert np.abs(estimates[True] / TRUTH - 1).max() <= 1e-4
     assert np.abs(estimates[True] / estimates[False] - 1).max() <= 1e-6
