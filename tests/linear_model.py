@@ -13,9 +13,10 @@ class _NoForwardModel:
 class _NoWarmStarts:
     """Its solves need no start; a policy that remembers nothing (no tangent predictor either)."""
 
-    tangent_starts = False
-
     def remember(self, solutions, values):
+        pass
+
+    def remember_tangents(self, values, tangents):
         pass
 
 
@@ -51,6 +52,6 @@ class LinearModel:
         M = self.M0 * np.exp(self.A @ np.log(solutions["values"] / TRUTH))
         return (M * (1 + self.drift if solutions["cold"] else 1.0)).reshape(3, 5)
 
-    def implicit_jacobian(self, values, solutions):
+    def implicit_jacobian(self, values, solutions, tangents=None):
         M = self.measure(solutions).reshape(15)
         return (M[:, None] * self.A / np.asarray(values)[None, :]).reshape(3, 5, 6)

@@ -38,8 +38,6 @@ def relative_jacobian(mm, values, solutions, options, warm):
     ``solutions`` being the equilibria it remembers there: LM and Gauss–Newton remember them first).
     """
     if options.jacobian == "implicit":
-        if not warm.tangent_starts:
-            return mm.implicit_jacobian(values, solutions)
         tangents = {}
         dM = mm.implicit_jacobian(values, solutions, tangents=tangents)
         warm.remember_tangents(values, tangents)

@@ -176,11 +176,10 @@ def test_jacobian_rows_from_the_workers_equal_the_serial_jacobian(problem, monke
     values = TRUTH * 1.02
     parallel = MeasurementModel(mm.model, Parameters(), paper_postures(), processes=2)
     solutions = parallel.solve(values, jacobian=True)
-    serial = MeasurementModel(mm.model, Parameters(), paper_postures()).implicit_jacobian(values, solutions | {
-        name: dataclasses.replace(s, jacobian_rows=None) for name, s in solutions.items()})     # no cached rows
     serial_tangents, parallel_tangents = {}, {}
-    MeasurementModel(mm.model, Parameters(), paper_postures()).implicit_jacobian(values, solutions | {
-        name: dataclasses.replace(s, jacobian_rows=None) for name, s in solutions.items()}, tangents=serial_tangents)
+    serial = MeasurementModel(mm.model, Parameters(), paper_postures()).implicit_jacobian(values, solutions | {
+        name: dataclasses.replace(s, jacobian_rows=None) for name, s in solutions.items()},   # no cached rows
+        tangents=serial_tangents)
     monkeypatch.setattr(MeasurementModel, "_posture_jacobian", lambda *a, **k: pytest.fail("not reused"))
     np.testing.assert_allclose(parallel.implicit_jacobian(values, solutions, tangents=parallel_tangents), serial,
                                rtol=1e-12, atol=0)
