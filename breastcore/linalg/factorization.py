@@ -94,13 +94,14 @@ class Factorization:
                 self._lu = spla.splu(K.tocsc(), permc_spec="MMD_AT_PLUS_A", options={"SymmetricMode": True})
 
     def _factorize(self, upper):
-        handle = self._pattern.handle(single=self.mixed)
+        handle = self._pattern.handle_to_factorize(single=self.mixed)
         self._data = np.ascontiguousarray(upper, dtype=handle.dtype)
         self.negative_pivots = handle.factorize(self._data, self._token)
 
     def _solve_factor(self, b):
         handle = self._pattern.handle(single=self.mixed)
-        if handle.owner != self._token:                              # another factor took the handle
+        if handle.owner != self._token:                              # another factor took the handle, or freed it
+            handle = self._pattern.handle_to_factorize(single=self.mixed)
             handle.factorize(self._data, self._token)
         return handle.solve(self._data, b).astype(float, copy=False)
 

@@ -116,6 +116,12 @@ class _Pardiso:
         self.owner = owner
         return int(self.iparm[22])                                   # number of negative pivots
 
+    def release_factor(self):
+        """Free the numeric factor (PARDISO phase 0), keeping the symbolic analysis; a no-op if none is held."""
+        if self.analysed and self.owner is not None:
+            self.owner = None
+            self._call(0, None)
+
     def solve(self, data, b):
         b = np.asfortranarray(b, dtype=self.dtype)
         nrhs = 1 if b.ndim == 1 else b.shape[1]
@@ -140,7 +146,8 @@ class SymmetricPattern:
     object keeps the PARDISO symbolic analysis (ordering) of that pattern, so that
     :class:`Factorization` only does the numeric phase. The handle holds one numeric
     factor at a time: a :class:`Factorization` whose factor was replaced by a later
-    one refactorises itself on its next ``solve`` (results never mix).
+    one refactorises itself on its next ``solve`` (results never mix). Its two handles
+    (single and double precision) hold one between them (:meth:`handle_to_factorize`).
 
     Parameters
     ----------
@@ -190,6 +197,22 @@ class SymmetricPattern:
         if single not in self._handles:
             self._handles[single] = _Pardiso(self.n, self.ia, self.ja, single)
         return self._handles[single]
+
+    def handle_to_factorize(self, single=False):
+        """:meth:`handle`, with the other precision's numeric factor freed first: one numeric factor
+        of this pattern in memory at a time.
+
+        A single-precision factor whose refinement stalls is redone in double
+        (:class:`~breastcore.linalg.factorization.Factorization`); without this, the double factor
+        and the next iteration's single one were both held to the end of the solve. A cold fine50k
+        standing solve with 2 PARDISO threads, where that happened, peaked at 2.6 GB (1.5 GB where it
+        did not); with this, 2.0 GB, the double factor being twice the single one's size
+        (docs/benchmarks.md). A factor freed so is redone from its own matrix if it is solved with again.
+        """
+        other = self._handles.get(not single)
+        if other is not None:
+            other.release_factor()
+        return self.handle(single)
 
     def release(self):
         """Free PARDISO's memory for this pattern (it is re-analysed on next use)."""

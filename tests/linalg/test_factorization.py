@@ -61,6 +61,49 @@ def test_ill_conditioned_matrix_falls_back_to_double_precision(rng):
     np.testing.assert_allclose(x, x_double, rtol=1e-12, atol=0)
 
 
+def _ill_conditioned(n=400):
+    """A Neumann Laplacian + 1e-10 I (κ ≈ 4e10): single-precision refinement stalls on it."""
+    K = sp.diags([-np.ones(n - 1), 2.0 * np.ones(n), -np.ones(n - 1)], [-1, 0, 1], format="lil")
+    K[0, 0] = K[n - 1, n - 1] = 1.0
+    K = (K + 1e-10 * sp.eye(n)).tocsr()
+    K.sort_indices()
+    return K
+
+
+def test_a_pattern_holds_one_numeric_factor_at_a_time_across_precisions(rng):
+    K = _ill_conditioned()
+    pattern = pardiso.SymmetricPattern(K.indptr, K.indices, K.shape[0])
+    b = rng.standard_normal(K.shape[0])
+    stalled = Factorization(K, pattern, mixed=True)
+    assert pattern.handle(single=True).owner == stalled._token
+    x = stalled.solve(b)                                           # stalls: redone in double
+    assert not stalled.mixed
+    single, double = pattern.handle(single=True), pattern.handle(single=False)
+    assert single.owner is None and double.owner == stalled._token  # the single factor was freed
+    well = (K + sp.eye(K.shape[0])).tocsr()                       # same pattern, well conditioned
+    fresh = Factorization(well, pattern, mixed=True)
+    assert single.owner == fresh._token and double.owner is None   # the double factor was freed
+    np.testing.assert_array_equal(stalled.solve(b), x)             # a freed factor is redone from its matrix
+    assert double.owner == stalled._token and single.owner is None
+    y = fresh.solve(b)
+    assert _relative_residual(well, y, b) <= factorization.REFINEMENT_RTOL and single.owner == fresh._token
+    np.testing.assert_array_equal(Factorization(well, pattern, mixed=True).solve(b), y)
+
+
+def test_freeing_a_factor_keeps_the_symbolic_analysis(small_box, rng):
+    K, assembler, b = _box_system(small_box, rng)
+    pattern = assembler.pattern
+    first = Factorization(K, pattern, mixed=False)
+    x = first.solve(b)
+    handle = pattern.handle(single=False)
+    perm = handle.perm.copy()
+    handle.release_factor()
+    handle.release_factor()                                        # a second release is a no-op
+    assert handle.owner is None and handle.analysed
+    np.testing.assert_array_equal(first.solve(b), x)
+    np.testing.assert_array_equal(handle.perm, perm)
+
+
 def test_newton_in_mixed_precision_reaches_the_same_equilibrium():
     params, fours = Parameters(), parse_posture("fours")
     model = ForwardModel(mesh_level("coarse"), SolverOptions(mixed_precision_min_dofs=100_000))
