@@ -117,7 +117,11 @@ class _Pardiso:
         return int(self.iparm[22])                                   # number of negative pivots
 
     def release_factor(self):
-        """Free the numeric factor (PARDISO phase 0), keeping the symbolic analysis; a no-op if none is held."""
+        """Free the numeric factor (PARDISO phase 0), keeping the symbolic analysis; a no-op if none is held.
+
+        A numeric factorisation (phase 22) may follow without a new analysis: checked on MKL 2026.2
+        (``tests/linalg/test_factorization.py``); MKL's documentation does not say so.
+        """
         if self.analysed and self.owner is not None:
             self.owner = None
             self._call(0, None)
@@ -205,8 +209,8 @@ class SymmetricPattern:
         A single-precision factor whose refinement stalls is redone in double
         (:class:`~breastcore.linalg.factorization.Factorization`); without this, the double factor
         and the next iteration's single one were both held to the end of the solve. A cold fine50k
-        standing solve with 2 PARDISO threads, where that happened, peaked at 2.6 GB (1.5 GB where it
-        did not); with this, 2.0 GB, the double factor being twice the single one's size
+        standing solve with 2 PARDISO threads, where that happened, peaked at 2.7 GB (1.5 GB where it
+        did not); with this, 2.1 GB, the double factor being twice the single one's size
         (docs/benchmarks.md). A factor freed so is redone from its own matrix if it is solved with again.
         """
         other = self._handles.get(not single)

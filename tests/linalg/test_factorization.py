@@ -90,18 +90,20 @@ def test_a_pattern_holds_one_numeric_factor_at_a_time_across_precisions(rng):
     np.testing.assert_array_equal(Factorization(well, pattern, mixed=True).solve(b), y)
 
 
-def test_freeing_a_factor_keeps_the_symbolic_analysis(small_box, rng):
+def test_freeing_a_factor_calls_phase_0_once_and_keeps_the_symbolic_analysis(small_box, rng, monkeypatch):
     K, assembler, b = _box_system(small_box, rng)
     pattern = assembler.pattern
     first = Factorization(K, pattern, mixed=False)
     x = first.solve(b)
     handle = pattern.handle(single=False)
-    perm = handle.perm.copy()
+    phases = []
+    call = handle._call
+    monkeypatch.setattr(handle, "_call", lambda phase, *args, **kw: phases.append(phase) or call(phase, *args, **kw))
     handle.release_factor()
     handle.release_factor()                                        # a second release is a no-op
-    assert handle.owner is None and handle.analysed
-    np.testing.assert_array_equal(first.solve(b), x)
-    np.testing.assert_array_equal(handle.perm, perm)
+    assert phases == [0] and handle.owner is None
+    np.testing.assert_array_equal(first.solve(b), x)               # numeric phase and solve only: no new analysis
+    assert phases == [0, 22, 33]
 
 
 def test_newton_in_mixed_precision_reaches_the_same_equilibrium():
