@@ -87,6 +87,7 @@ class _Pardiso:
             self.iparm[[0, 1, 9, 17, 18, 20, 27]] = [1, 2, 8, -1, -1, 1, 1]   # explicitly, plus single precision
         self.perm = np.zeros(self.n, dtype=np.int32)
         self.analysed = False
+        self.numeric = False                                         # whether L and U may be allocated
         self.owner = None                                            # token of the factor held now
 
     def _call(self, phase, data, b=None, nrhs=1):
@@ -112,6 +113,7 @@ class _Pardiso:
         if not self.analysed:
             self._call(11, data)
             self.analysed = True
+        self.numeric = True                                          # phase 22 may allocate even if it fails
         self._call(22, data)
         self.owner = owner
         return int(self.iparm[22])                                   # number of negative pivots
@@ -122,8 +124,8 @@ class _Pardiso:
         A numeric factorisation (phase 22) may follow without a new analysis: checked on MKL 2026.2
         (``tests/linalg/test_factorization.py``); MKL's documentation does not say so.
         """
-        if self.analysed and self.owner is not None:
-            self.owner = None
+        if self.analysed and self.numeric:
+            self.owner, self.numeric = None, False
             self._call(0, None)
 
     def solve(self, data, b):
@@ -137,7 +139,7 @@ class _Pardiso:
                 self._call(-1, None)
             except Exception:                                        # noqa: BLE001 - interpreter shutdown
                 pass
-            self.analysed = False
+            self.analysed = self.numeric = False
 
     def __del__(self):
         self.free()

@@ -157,3 +157,24 @@ def test_a_loose_rtol_stops_the_refinement_as_soon_as_the_residual_meets_it(smal
     tight = Factorization(K, assembler.pattern, mixed=True)
     x = tight.solve(b, rtol=0.1 * first)                           # below the first residual: refined
     assert tight.refinement_steps >= 1 and _relative_residual(K, x, b) <= 0.1 * first
+
+
+def test_a_failed_numeric_factorisation_is_still_freed(small_box, rng, monkeypatch):
+    K, assembler, b = _box_system(small_box, rng)
+    pattern = assembler.pattern
+    Factorization(K, pattern, mixed=False)
+    handle = pattern.handle(single=False)
+    phases = []
+    call = handle._call
+
+    def failing(phase, *args, **kw):
+        phases.append(phase)
+        if phase == 22:
+            raise RuntimeError("PARDISO phase 22 failed with error -4")
+        return call(phase, *args, **kw)
+    monkeypatch.setattr(handle, "_call", failing)
+    with pytest.raises(RuntimeError):
+        handle.factorize(np.ascontiguousarray(K.data[pattern.upper]), owner=-1)
+    assert handle.owner is None
+    pattern.handle_to_factorize(single=True)                      # the other precision: frees this one
+    assert phases == [22, 0]
