@@ -124,7 +124,7 @@ class _Pardiso:
         A numeric factorisation (phase 22) may follow without a new analysis: checked on MKL 2026.2
         (``tests/linalg/test_factorization.py``); MKL's documentation does not say so.
         """
-        if self.analysed and self.numeric:
+        if self.numeric:
             self.owner, self.numeric = None, False
             self._call(0, None)
 
