@@ -6,7 +6,7 @@ import copy
 
 import numpy as np
 
-from breastcore.fem import compiled, kernels, material
+from breastcore.fem import compiled, compiled_geometry, kernels, material
 from breastcore.fem.element_ops import _cofactor
 
 
@@ -36,16 +36,10 @@ class BulkNeoHookean:
     def __init__(self, reference, tets, lam, mu):
         self.connectivity = np.asarray(tets)
         self.lam, self.mu = float(lam), float(mu)
-        edges = reference[tets[:, 1:]] - reference[tets[:, :1]]          # (T,3 edges,3)
-        Dm = np.swapaxes(edges, 1, 2)                                     # columns = edges
-        self.volume = np.linalg.det(Dm) / 6.0
-        if np.any(self.volume <= 0):
+        self.volume, self.shape_gradients = compiled_geometry.bulk_reference(
+            np.ascontiguousarray(reference, dtype=float), np.ascontiguousarray(self.connectivity))
+        if not np.all(self.volume > 0):
             raise ValueError("reference mesh has non-positive tetrahedra")
-        Dm_inv = np.linalg.inv(Dm)
-        self.shape_gradients = np.concatenate([-Dm_inv.sum(axis=1, keepdims=True), Dm_inv], axis=1)
-        # |τ| ∇N_a·∇N_b: the constant part of the μ δ_ik block.
-        self._volume_GG = np.einsum("naj,nbj->nab", self.shape_gradients, self.shape_gradients) \
-            * self.volume[:, None, None]
 
     def with_moduli(self, lam, mu) -> "BulkNeoHookean":
         """The same term on the same reference geometry with Lamé parameters ``(lam, mu)`` (Pa).
@@ -60,6 +54,13 @@ class BulkNeoHookean:
     def deformation_gradient(self, x):
         """``F`` of every tet, ``(T, 3, 3)``."""
         return np.matmul(np.swapaxes(x[self.connectivity], 1, 2), self.shape_gradients)
+
+    def deformation_extremes(self, x):
+        """``(min det F, max principal stretch)`` over the tets at ``x`` (compiled:
+        :func:`breastcore.fem.compiled_geometry.deformation_extremes`)."""
+        min_det, stretch = compiled_geometry.deformation_extremes(
+            np.ascontiguousarray(x, dtype=float), self.connectivity, self.shape_gradients)
+        return float(min_det), float(stretch)
 
     def det_F(self, x):
         return _cofactor(self.deformation_gradient(x))[1]
@@ -150,7 +151,9 @@ class BulkNeoHookean:
         H = (Q * (self.volume * c_vol)[:, None, None])[:, :, :, None, None] * Q[:, None, None, :, :]
         swap = (Q * (self.volume * c_swap)[:, None, None])[:, :, :, None, None] * Q[:, None, None, :, :]
         H += swap.transpose(0, 3, 2, 1, 4)
-        diagonal = self.mu * self._volume_GG
+        # |τ| ∇N_a·∇N_b: the constant part of the μ δ_ik block.
+        diagonal = self.mu * np.einsum("naj,nbj->nab", self.shape_gradients, self.shape_gradients) \
+            * self.volume[:, None, None]
         for i in range(3):
             H[:, :, i, :, i] += diagonal
         return H.reshape(n, 12, 12)

@@ -6,9 +6,8 @@ import copy
 
 import numpy as np
 
-from breastcore.fem import kernels
-from breastcore.fem.assembly import element_dofs
-from breastcore.fem.element_ops import _TRIANGLE_EDGES, _dot, _edges_to_nodes, _scatter, project_psd
+from breastcore.fem import compiled_skin, kernels
+from breastcore.fem.element_ops import _TRIANGLE_EDGES, _edges_to_nodes, project_psd
 
 
 class SkinMembrane:
@@ -24,6 +23,14 @@ class SkinMembrane:
         Skin Lamé parameters λ_s, μ_s, Pa.
     thickness : float
         Skin thickness t_s, m; the membrane moduli are ``λ_s t_s`` and ``μ_s t_s`` (N/m).
+
+    Notes
+    -----
+    Performance: :meth:`value`, :meth:`checked_value`, :meth:`gradient` and
+    :meth:`scatter_hessian` (what a Newton iteration calls) are compiled loops over the
+    triangles (:mod:`breastcore.fem.compiled_skin`). The numpy versions
+    (:meth:`element_energies`, :meth:`element_gradients`, :meth:`element_hessians`) are
+    the reference they are tested against.
     """
 
     def __init__(self, reference, triangles, lam, mu, thickness):
@@ -35,7 +42,6 @@ class SkinMembrane:
         self.det_G = np.linalg.det(G)
         self.G_inv = np.linalg.inv(G)
         self.area = 0.5 * np.sqrt(self.det_G)
-        self._dofs = element_dofs(self.connectivity)
 
     def with_moduli(self, lam, mu, thickness) -> "SkinMembrane":
         """The same term on the same reference triangles with ``λ_s, μ_s`` (Pa) and ``t_s`` (m).
@@ -61,18 +67,22 @@ class SkinMembrane:
     def admissible(self, x):
         return bool(np.all(self.metric_ratio(x) > 1e-12))
 
-    def value(self, x):
-        _, _, D, I1 = self._edges(x)
-        W = kernels.membrane_neo_hookean(I1, D, self.det_G, self.lam, self.mu)[0]
-        return _dot(self.area, W)
+    def _compiled_args(self, x):
+        return (np.ascontiguousarray(x, dtype=float), self.connectivity, self.G_inv, self.det_G, self.area,
+                self.lam, self.mu)
 
-    def checked_value(self, x):
-        """``value(x)``, or ``+inf`` if a skin triangle is degenerate (one pass instead of two)."""
+    def value(self, x):
+        """Energy in J, ``+inf`` if a triangle is degenerate (compiled:
+        :func:`~breastcore.fem.compiled_skin.skin_energy`)."""
+        return compiled_skin.skin_energy(*self._compiled_args(x))
+
+    #: One pass gives the energy and the degeneracy test (``Composite.value`` calls this).
+    checked_value = value
+
+    def element_energies(self, x):
+        """Reference numpy version of :meth:`value`: ``|T| W`` per triangle ``(S,)``, J."""
         _, _, D, I1 = self._edges(x)
-        if not np.all(D / self.det_G > 1e-12):
-            return np.inf
-        W = kernels.membrane_neo_hookean(I1, D, self.det_G, self.lam, self.mu)[0]
-        return _dot(self.area, W)
+        return self.area * kernels.membrane_neo_hookean(I1, D, self.det_G, self.lam, self.mu)[0]
 
     def _edge_gradient(self, e, g, D, I1):
         _, W_D, W_DD = kernels.membrane_neo_hookean(I1, D, self.det_G, self.lam, self.mu)
@@ -83,9 +93,19 @@ class SkinMembrane:
         return dW, dD, W_D, W_DD
 
     def gradient(self, x):
+        """Nodal forces ``(N, 3)``, N (compiled: :func:`~breastcore.fem.compiled_skin.add_skin_gradient`)."""
+        out = np.zeros(np.shape(x))
+        compiled_skin.add_skin_gradient(out, *self._compiled_args(x))
+        return out
+
+    def element_gradients(self, x):
+        """Reference numpy version of :meth:`gradient`: per-triangle nodal forces ``(S, 3, 3)``, N."""
         e, g, D, I1 = self._edges(x)
-        dW = self._edge_gradient(e, g, D, I1)[0] * self.area[:, None, None]
-        return _scatter(self._dofs, _edges_to_nodes(dW, 1), x.shape)
+        return _edges_to_nodes(self._edge_gradient(e, g, D, I1)[0] * self.area[:, None, None], 1)
+
+    def scatter_hessian(self, data, positions, x):
+        """Add :meth:`element_hessians` into CSR ``data`` at ``positions`` (compiled, no blocks)."""
+        compiled_skin.scatter_skin_hessian(data, positions, *self._compiled_args(x))
 
     def element_hessians(self, x):
         e, g, D, I1 = self._edges(x)

@@ -1,14 +1,15 @@
 """Compile and cache every numba kernel once, at install time.
 
-The element loops of :mod:`breastcore.fem.compiled` are compiled on first use and
-cached beside the module (``cache=True``). Without a cache, each process of a fresh
-install compiles them again, about 3 s each, until one has written the cache; the
-first workflow jobs, run side by side, all pay it. ``make`` runs this module after
-``pip install`` (``python -m breastcore.fem.warm``), so no job does.
+The element loops of :mod:`breastcore.fem.compiled`, ``compiled_geometry`` and
+``compiled_skin`` are compiled on first use and cached beside the module
+(``cache=True``). Without a cache, each process of a fresh install compiles them
+again, about 3 s each, until one has written the cache; the first workflow jobs, run
+side by side, all pay it. ``make`` runs this module after ``pip install``
+(``python -m breastcore.fem.warm``), so no job does.
 
-It evaluates the energy, gradient, exact Hessian and PSD-projected Hessian of one
-posture on the coarse mesh, which is every compiled kernel called with the argument
-types a solve uses.
+It builds one posture's problem on the coarse mesh (the reference geometry) and evaluates
+its energy, gradient, exact Hessian, PSD-projected Hessian and deformation diagnostics,
+which is every compiled kernel called with the argument types a solve uses.
 """
 
 from __future__ import annotations
@@ -32,6 +33,7 @@ def warm_compiled_kernels() -> float:
     problem.gradient(z)
     problem.hessian(z)
     problem.hessian(z, project=True)
+    problem.bulk.deformation_extremes(problem.full(z))
     return time.perf_counter() - tic
 
 

@@ -67,10 +67,8 @@ def _minimise(model, problem, z, tolerance):
 
 
 def _diagnostics(problem, x):
-    F = problem.bulk.deformation_gradient(x)
-    det = np.linalg.det(F)
-    stretch = np.sqrt(np.linalg.eigvalsh(np.einsum("nki,nkj->nij", F, F)).max())
-    return float(det.min()), float(stretch)
+    """``(min det F, max principal stretch)`` at ``x``."""
+    return problem.bulk.deformation_extremes(x)
 
 
 def solve_posture(model, params: Parameters, posture: Posture, start=None) -> PostureSolution:

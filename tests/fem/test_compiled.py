@@ -121,3 +121,39 @@ def test_tangent_moduli_are_the_fd_derivative_of_the_stress(small_box, rng):
         dF.flat[kl] = h
         fd[:, :, kl] = ((stress(F + dF) - stress(F - dF)) / (2 * h)).reshape(3, 9)
     np.testing.assert_allclose(bulk.tangent_moduli(x)[:3], fd, rtol=0, atol=1e-6 * np.abs(fd).max())
+
+
+def test_compiled_reference_geometry_reproduces_linear_fields(small_box):
+    """``Σ_a X_a ⊗ ∇N_a = I`` and ``Σ_a ∇N_a = 0`` per tet; the volumes sum to the box's and equal
+    numpy's ``det``."""
+    nodes, tets = small_box[0], small_box[1]
+    bulk = BulkNeoHookean(nodes, tets, 1000.0, 150.0)
+    G = bulk.shape_gradients
+    identity = np.broadcast_to(np.eye(3), (len(tets), 3, 3))
+    np.testing.assert_allclose(np.einsum("nai,naj->nij", nodes[tets], G), identity, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(G.sum(axis=1), 0.0, atol=1e-12 * np.abs(G).max())
+    assert bulk.volume.sum() == pytest.approx(np.prod(np.ptp(nodes, axis=0)), rel=1e-12)
+    edges = np.swapaxes(nodes[tets[:, 1:]] - nodes[tets[:, :1]], 1, 2)
+    np.testing.assert_allclose(bulk.volume, np.linalg.det(edges) / 6, rtol=1e-13)
+
+
+def test_reference_mesh_with_an_inverted_tet_is_rejected(small_box):
+    nodes, tets = small_box[0], small_box[1].copy()
+    tets[0, [0, 1]] = tets[0, [1, 0]]
+    with pytest.raises(ValueError, match="non-positive"):
+        BulkNeoHookean(nodes, tets, 1000.0, 150.0)
+
+
+def test_deformation_extremes_of_a_homogeneous_stretch_and_of_a_random_state(small_box, rng):
+    """At ``x = diag(a, b, c) X`` every tet has ``det F = abc`` and largest stretch ``max(a, b, c)``;
+    at a random state, numpy's ``det`` and ``eigvalsh`` of ``FᵀF`` give the same extremes."""
+    bulk = BulkNeoHookean(small_box[0], small_box[1], 1000.0, 150.0)
+    stretch = np.array([1.3, 0.6, 0.9])
+    min_det, largest = bulk.deformation_extremes(small_box[0] * stretch)
+    assert min_det == pytest.approx(np.prod(stretch), rel=1e-12)
+    assert largest == pytest.approx(stretch.max(), rel=1e-12)
+    x = deformed(small_box[0], rng, 0.6)
+    F = bulk.deformation_gradient(x)
+    min_det, largest = bulk.deformation_extremes(x)
+    assert min_det == pytest.approx(np.linalg.det(F).min(), rel=1e-12)
+    assert largest == pytest.approx(np.sqrt(np.linalg.eigvalsh(np.einsum("nki,nkj->nij", F, F)).max()), rel=1e-12)
