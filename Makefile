@@ -14,7 +14,8 @@ $(BIN)/.installed: pyproject.toml
 	touch $@
 
 # numba's cache of the compiled element loops, so that no job compiles them (again after an edit)
-$(BIN)/.warm: $(BIN)/.installed breastcore/fem/compiled.py breastcore/fem/material.py
+$(BIN)/.warm: $(BIN)/.installed $(wildcard breastcore/fem/compiled*.py) breastcore/fem/material.py \
+              breastcore/fem/kernels.py
 	$(BIN)/python -m breastcore.fem.warm
 	touch $@
 
