@@ -65,7 +65,7 @@ class SkinMembrane:
         return self._edges(x)[2] / self.det_G
 
     def admissible(self, x):
-        return bool(np.all(self.metric_ratio(x) > 1e-12))
+        return bool(np.all(self.metric_ratio(x) > compiled_skin.DEGENERATE_METRIC_RATIO))
 
     def _compiled_args(self, x):
         return (np.ascontiguousarray(x, dtype=float), self.connectivity, self.G_inv, self.det_G, self.area,
