@@ -67,11 +67,18 @@ def skin_energy(x, triangles, G_inv, det_G, area, lam, mu):
 
 
 @njit(cache=True)
-def _edge_derivatives(dW, dD, e, g, G_inv, W_D, mu):
-    """``dD`` (2, 3) = ∂D/∂e and ``dW`` (2, 3) = ∂W/∂e of one triangle."""
+def _metric_derivative(dD, e, g):
+    """``dD`` (2, 3) = ∂D/∂e of one triangle."""
     for i in range(3):
         dD[0, i] = 2.0 * (g[1, 1] * e[0, i] - g[0, 1] * e[1, i])
         dD[1, i] = 2.0 * (g[0, 0] * e[1, i] - g[0, 1] * e[0, i])
+
+
+@njit(cache=True)
+def _edge_derivatives(dW, dD, e, g, G_inv, W_D, mu):
+    """``dD`` (2, 3) = ∂D/∂e and ``dW`` (2, 3) = ∂W/∂e of one triangle."""
+    _metric_derivative(dD, e, g)
+    for i in range(3):
         for a in range(2):
             dW[a, i] = mu * (G_inv[a, 0] * e[0, i] + G_inv[a, 1] * e[1, i]) + W_D * dD[a, i]
 
@@ -100,14 +107,13 @@ def scatter_skin_hessian(data, positions, x, triangles, G_inv, det_G, area, lam,
     """Add the skin Hessian of every triangle into the CSR ``data`` at ``positions`` (S, 9, 9), ``-1`` dropped."""
     e = np.empty((2, 3))
     g = np.empty((2, 2))
-    dW = np.empty((2, 3))
     dD = np.empty((2, 3))
     He = np.empty((2, 3, 2, 3))                                  # ∂²W/∂e∂e
     Hn = np.empty((3, 3, 3, 3))                                  # on the nodes
     for t in range(triangles.shape[0]):
         D = _edges(e, g, x, triangles[t])
         _, W_D, W_DD = _membrane(_first_invariant(G_inv[t], g), D, det_G[t], lam, mu)
-        _edge_derivatives(dW, dD, e, g, G_inv[t], W_D, mu)
+        _metric_derivative(dD, e, g)                              # ∂W/∂e itself is not needed here
         for i in range(3):
             for j in range(3):
                 delta = 1.0 if i == j else 0.0

@@ -1,6 +1,7 @@
 """``python -m breastcore.fem.warm`` (run by ``make`` after install) leaves a numba cache
 entry for every compiled kernel, so that no workflow job compiles one."""
 
+import inspect
 import os
 import subprocess
 import sys
@@ -43,15 +44,13 @@ def test_warm_caches_every_compiled_kernel(tmp_path):
     assert hits >= 7 and misses == 0, job.stdout             # bulk and skin energy, gradient, Hessian; …
 
 
-SOLVE_AND_COUNT = """
+SOLVE_AND_COUNT = inspect.getsource(dispatchers) + """
 from breastcore.fem import compiled, compiled_geometry, compiled_skin
 from breastcore.forward.model import ForwardModel
 from breastcore.model.mesh import mesh_level
 from breastcore.model.parameters import Parameters
 from breastcore.model.postures import paper_postures
 ForwardModel(mesh_level("coarse")).solve(Parameters(), paper_postures()[2])
-found = {id(obj): obj for module in (compiled, compiled_geometry, compiled_skin) for obj in vars(module).values()
-         if getattr(obj, "py_func", None) is not None and hasattr(obj, "stats")}
-stats = [obj.stats for obj in found.values()]
+stats = [obj.stats for obj in dispatchers(compiled, compiled_geometry, compiled_skin)]
 print(sum(sum(s.cache_hits.values()) for s in stats), sum(sum(s.cache_misses.values()) for s in stats))
 """
