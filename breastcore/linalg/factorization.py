@@ -84,8 +84,7 @@ class Factorization:
                     K.sum_duplicates()
                 pattern = SymmetricPattern(K.indptr, K.indices, K.shape[0])
             self._pattern = pattern
-            threshold = MIXED_PRECISION_MIN_DOFS if pattern.mixed_min_dofs is None else pattern.mixed_min_dofs
-            self.mixed = K.shape[0] >= threshold if mixed is None else bool(mixed)
+            self.mixed = single_precision(pattern) if mixed is None else bool(mixed)
             self._K = K if self.mixed else None
             self._factorize(K.data[pattern.upper])
         else:
@@ -142,6 +141,20 @@ class Factorization:
             x = x + self._solve_factor(r)
             self.refinement_steps += 1
         return None
+
+
+def single_precision(pattern: SymmetricPattern) -> bool:
+    """Whether matrices of ``pattern`` are factorised in single precision by default: at least its
+    ``mixed_min_dofs`` rows (:data:`MIXED_PRECISION_MIN_DOFS` if that is None)."""
+    threshold = MIXED_PRECISION_MIN_DOFS if pattern.mixed_min_dofs is None else pattern.mixed_min_dofs
+    return pattern.n >= threshold
+
+
+def analyse(pattern: SymmetricPattern):
+    """PARDISO's symbolic analysis of ``pattern`` now, in the precision its factorisations use by
+    default (:func:`single_precision`); a no-op without PARDISO or where it is done already."""
+    if pardiso.available():
+        pattern.analyse(single_precision(pattern))
 
 
 def shift_diagonal(K, sigma):

@@ -107,6 +107,18 @@ class _Pardiso:
             raise RuntimeError(f"PARDISO phase {phase} failed with error {error.value}")
         return x
 
+    def analyse(self):
+        """The symbolic analysis (phase 11) now, if not done yet.
+
+        With ``mtype = −2`` and no scaling or weighted matching (``iparm[10] = iparm[12] = 0``,
+        PARDISO's defaults for symmetric matrices, kept here) the analysis reads the pattern only,
+        so zeros stand in for the values: the factors that follow are those of an analysis at the
+        first factorisation, bit for bit (``tests/linalg/test_pardiso_analysis.py``).
+        """
+        if not self.analysed:
+            self._call(11, np.zeros(len(self.ja), dtype=self.dtype))
+            self.analysed = True
+
     def factorize(self, data, owner):
         """Numeric factorisation of the matrix with upper-triangle values ``data``."""
         self.owner = None
@@ -203,6 +215,11 @@ class SymmetricPattern:
         if single not in self._handles:
             self._handles[single] = _Pardiso(self.n, self.ia, self.ja, single)
         return self._handles[single]
+
+    def analyse(self, single=False):
+        """Do the symbolic analysis of :meth:`handle` now (e.g. before forking workers, which then
+        inherit it instead of each making their own)."""
+        self.handle(single).analyse()
 
     def handle_to_factorize(self, single=False):
         """:meth:`handle`, with the other precision's numeric factor freed first: one numeric factor
