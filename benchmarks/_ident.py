@@ -61,7 +61,7 @@ def run(level: str, target, start, opts: IdentificationOptions, solver: str = "n
     """One identification from ``start``; the outcome as a JSON-able dict.
 
     ``time`` is the wall time of the whole :func:`identify` call (initial solve and
-    the final Jacobian included). ``forward_solves`` counts posture solves (one
+    the final Jacobian included; with ``processes > 1`` the workers' fork, not their shutdown). ``forward_solves`` counts posture solves (one
     evaluation of Λ solves three postures), as ``IdentificationResult`` does.
     ``processes``: postures solved in this many processes (``MeasurementModel``).
     """
@@ -69,12 +69,14 @@ def run(level: str, target, start, opts: IdentificationOptions, solver: str = "n
     tic = time.perf_counter()
     try:
         res = identify(mm, np.asarray(target, float), np.asarray(start, float), opts)
+        wall = time.perf_counter() - tic
     except Exception as err:  # noqa: BLE001 — identify raising is a result too (recorded, not fatal)
         return dict(ok=False, success=False, error=repr(err), time=time.perf_counter() - tic,
                     rel_error=[float("nan")] * 6, max_rel_error=float("nan"), iterations=float("nan"),
                     forward_solves=mm.solves, failed_solves=float("nan"), cost=float("nan"),
                     message=f"identify raised {err!r}")
-    wall = time.perf_counter() - tic
+    finally:
+        mm.close()                       # after the timing: shutting the workers down is not part of the run
     rel = res.estimate / TRUTH - 1.0
     out = dict(ok=True, success=bool(res.success), message=res.message, time=wall,
                estimate=res.estimate.tolist(), rel_error=rel.tolist(), max_rel_error=float(np.abs(rel).max()),

@@ -25,12 +25,23 @@ def fork_map(function, count, processes=1, after_fork=None):
     ``concurrent.futures.process.BrokenProcessPool`` instead of hanging.
     """
     processes = min(int(processes), count)
-    if processes <= 1 or "fork" not in mp.get_all_start_methods() or mp.current_process().daemon:
+    if not can_fork(processes):
         return [function(i) for i in range(count)]
     # with fork, initargs reach the child through its copied memory, not pickling
-    with ProcessPoolExecutor(processes, mp_context=mp.get_context("fork"), initializer=_start_child,
+    with ProcessPoolExecutor(processes, mp_context=fork_context(), initializer=_start_child,
                              initargs=(function, after_fork)) as pool:
         return list(pool.map(_call, range(count)))
+
+
+def can_fork(processes) -> bool:
+    """Whether work for ``processes`` workers goes to forked processes: more than one, ``fork``
+    available, and this process not a daemon (which may not have children)."""
+    return int(processes) > 1 and "fork" in mp.get_all_start_methods() and not mp.current_process().daemon
+
+
+def fork_context():
+    """The ``fork`` start method's context: the workers inherit their target through copied memory."""
+    return mp.get_context("fork")
 
 
 def _start_child(function, after_fork):

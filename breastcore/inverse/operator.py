@@ -12,13 +12,16 @@ Jacobians of issue #3:
 
 from __future__ import annotations
 
-import numpy as np
-
 import dataclasses
+import functools
+
+import numpy as np
 
 from breastcore.fem.terms import BulkNeoHookean, SkinMembrane, modulus_gradient
 from breastcore.forward.model import ForwardModel
+from breastcore.forward.records import SolveError
 from breastcore.forward.reduced import reduced_start
+from breastcore.forward.workers import Workers
 from breastcore.inverse.measurements import QUANTITIES, measure
 from breastcore.inverse.options import IdentificationOptions
 from breastcore.inverse.warm_start import WarmStarts
@@ -52,10 +55,10 @@ class MeasurementModel:
         apart in energy): a warm start from far away can land on another branch than
         the cold path that defines ``M(Λ)``, while nearby warm starts follow the same branch.
     processes : int
-        The postures are solved in this many forked processes
-        (:meth:`ForwardModel.solve_postures`; the same results bit for bit).
-        Worth it from the thin mesh up: each call forks, and each worker redoes the symbolic
-        factorisation of each posture it solves (~0.1 s on ultra-thin), against 1-7 s for a posture.
+        The postures are solved in this many forked worker processes (the same results bit
+        for bit), forked at the first such solve and kept until :meth:`close`
+        (:class:`~breastcore.forward.workers.Workers`): each keeps its copy of this model, as
+        it was then, with its PARDISO handles and caches. Worth it from the thin mesh up.
     reduced_snapshots : int
         0: solves beyond ``warm_radius`` are cold. n > 0 (default: that of
         :class:`~breastcore.inverse.options.IdentificationOptions`, 8): they start from
@@ -83,6 +86,7 @@ class MeasurementModel:
         self.reduced_snapshots = int(reduced_snapshots)
         self.tangent_starts = bool(tangent_starts)
         self.solves = 0                                  # a counter of forward solves, for the record
+        self._workers = Workers(self, self.processes, functools.partial(model.after_fork, keep_analyses=True))
 
     @classmethod
     def from_problem(cls, problem, mesh=None, *, model=None, processes=1) -> "MeasurementModel":
@@ -118,7 +122,7 @@ class MeasurementModel:
         ``warm`` is not changed: the caller decides which equilibria to remember.
 
         With ``jacobian`` and ``processes > 1``, each worker also computes its
-        posture's rows of :meth:`implicit_jacobian` at ``values`` (0.1 s a posture on
+        posture's rows of :meth:`implicit_jacobian` at ``values`` (35 ms a posture on
         ultra-thin, in parallel), which ``implicit_jacobian`` then reuses; serially
         they are left to be computed when asked for.
         """
@@ -129,13 +133,11 @@ class MeasurementModel:
         if warm is not None and warm.history:
             starts = self._reduced_starts(params, starts, warm.history)
         if self.processes > 1:
-            at = np.array(values, dtype=float)
-
-            def rows(posture, solution):
-                return {"jacobian_rows": (at, *self._posture_jacobian(params, at, posture, solution.position))}
-
-            solved = self.model.solve_postures(params, self.postures, starts, self.processes,
-                                               rows if jacobian else None)
+            at = np.array(values, dtype=float) if jacobian else None
+            solved = self._workers.map("_solve_posture", [(params, p, starts[p.name], at) for p in self.postures])
+            for outcome in solved:                       # all have run: raise the first failure
+                if isinstance(outcome, SolveError):
+                    raise outcome
             solutions = {p.name: s for p, s in zip(self.postures, solved)}
             self.solves += len(self.postures)
         else:
@@ -144,6 +146,29 @@ class MeasurementModel:
                 solutions[posture.name] = self.model.solve(params, posture, starts[posture.name])
                 self.solves += 1
         return {name: dataclasses.replace(s, cold_start=starts[name] is None) for name, s in solutions.items()}
+
+    def _solve_posture(self, params, posture, start, jacobian_at=None):
+        """One posture's equilibrium, in a worker of :meth:`solve` (a SolveError is returned, not raised); with
+        ``jacobian_at`` (Λ), also its rows of :meth:`implicit_jacobian` there, which that then reuses."""
+        try:
+            solution = self.model.solve(params, posture, start)
+        except SolveError as err:
+            return err
+        if jacobian_at is None:
+            return solution
+        rows = self._posture_jacobian(params, jacobian_at, posture, solution.position)
+        return dataclasses.replace(solution, jacobian_rows=(jacobian_at, *rows))
+
+    def close(self):
+        """Shut down the worker processes of :meth:`solve` (none with ``processes = 1``); a later
+        solve forks new ones. Also done when this model is garbage-collected, or at exit."""
+        self._workers.close()
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.close()
 
     def _admissible_starts(self, params, predicted, fallback):
         """``predicted``, each start whose energy is not finite (an inverted tet) replaced by ``fallback``'s."""

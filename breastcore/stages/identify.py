@@ -78,11 +78,11 @@ def identify_target(problem, mesh, target, truth, initial, *, mesh_level, proces
     processes : int
         Postures solved in this many processes.
     """
-    mm = MeasurementModel.from_problem(problem, mesh, processes=processes)
-    result = identify(mm, target.values, initial, problem.identification, target.weights)
-    return identification_dataset(result, mm, target, problem, initial=initial,
-                                  truth=[truth[k] for k in IDENTIFIED] if truth else None,
-                                  mesh_level=mesh_level, config_hash=config_hash)
+    with MeasurementModel.from_problem(problem, mesh, processes=processes) as mm:     # closes its workers
+        result = identify(mm, target.values, initial, problem.identification, target.weights)
+        return identification_dataset(result, mm, target, problem, initial=initial,
+                                      truth=[truth[k] for k in IDENTIFIED] if truth else None,
+                                      mesh_level=mesh_level, config_hash=config_hash)
 
 
 def log_verdict(ds):

@@ -171,6 +171,34 @@ def test_cold_solves_in_two_processes_equal_serial_ones_bit_for_bit(problem):
         MeasurementModel(mm.model, Parameters(), paper_postures(), processes=0)
 
 
+def test_an_identification_in_two_processes_equals_the_serial_one_bit_for_bit(problem):
+    mm, _, target = problem
+    start = TRUTH * np.array([1.2, 0.8, 1.2, 0.8, 1.2, 0.8])
+    options = IdentificationOptions(max_iterations=3)
+    serial = identify(MeasurementModel(mm.model, Parameters(), paper_postures()), target, start, options)
+    with MeasurementModel(mm.model, Parameters(), paper_postures(), processes=2) as parallel:
+        forked = identify(parallel, target, start, options)
+        assert parallel._workers.started                    # the same workers served every evaluation
+    assert not parallel._workers.started                    # closed on leaving the with block
+    assert np.array_equal(np.array(forked.parameters), np.array(serial.parameters))
+    assert np.array_equal(forked.cost, serial.cost) and forked.forward_solves == serial.forward_solves
+
+
+def test_a_failed_posture_in_a_worker_raises_its_solve_error(problem, monkeypatch):
+    mm, _, _ = problem
+    solve = ForwardModel.solve
+
+    def fours_fails(self, params, posture, start=None):
+        if posture.name == "fours":
+            raise SolveError("continuation stalled", iterations=1, gradient_norm=1.0, tolerance=1e-9,
+                             min_det_F=0.5, load_factor=1.0, smoothing=1e-6, posture="fours")
+        return solve(self, params, posture, start)
+    monkeypatch.setattr(ForwardModel, "solve", fours_fails)          # before the workers are forked
+    with MeasurementModel(mm.model, Parameters(), paper_postures(), processes=2) as parallel:
+        with pytest.raises(SolveError, match="fours"):
+            parallel.solve(TRUTH)
+
+
 def test_jacobian_rows_from_the_workers_equal_the_serial_jacobian(problem, monkeypatch):
     mm, _, _ = problem
     values = TRUTH * 1.02

@@ -1,0 +1,90 @@
+"""Forked worker processes that outlive a call: :class:`Workers`.
+
+:func:`~breastcore.forward.parallel.fork_map` forks new workers at every call. An
+identification solves its postures some ten times, and a freshly forked worker pays, at
+each call, for the memory its solves touch for the first time: on ultra-thin 2,000-8,000
+page faults a posture solve, 10-45 % of its time (``docs/benchmarks.md``), besides the
+fork. A :class:`Workers` forks once, at its first call, and its workers keep their copy
+of the target object (a measurement model, with its forward model's PARDISO handles,
+factors and caches) from one call to the next, as a serial run keeps its own.
+"""
+
+from __future__ import annotations
+
+import os
+import weakref
+from concurrent.futures import ProcessPoolExecutor
+from concurrent.futures.process import BrokenProcessPool
+
+from breastcore.forward.parallel import can_fork, fork_context
+
+_TARGET = None    # in a worker only (set by _start): the object whose methods the tasks call
+
+
+class Workers:
+    """``processes`` forked workers that call methods of ``target``, started at the first :meth:`map`.
+
+    Parameters
+    ----------
+    target : object
+        Its copy in each worker, as it was when the workers were forked, runs the tasks:
+        what the target changes in a worker stays there, and what the caller changes later
+        does not reach the workers. Tasks and results cross the process boundary by pickling.
+    processes : int
+    after_fork : callable, optional
+        Runs once in each worker, before its first task.
+
+    Notes
+    -----
+    Serial (the target's methods called here) where :func:`~breastcore.forward.parallel.can_fork`
+    says no. A worker that dies raises ``BrokenProcessPool`` in :meth:`map`, and the next call
+    forks new workers. A copy of a :class:`Workers` in another process (a forked child of the
+    caller's) forks workers of its own. The workers are shut down by :meth:`close`, or when
+    this object is garbage-collected, or at exit.
+    """
+
+    def __init__(self, target, processes, after_fork=None):
+        self.target, self.processes, self.after_fork = target, int(processes), after_fork
+        self._pool, self._pid, self._finalizer = None, None, None
+
+    def map(self, method, arguments):
+        """``[getattr(target, method)(*args) for args in arguments]``, in the workers; results in order."""
+        arguments = list(arguments)
+        if not can_fork(min(self.processes, len(arguments))):
+            return [getattr(self.target, method)(*args) for args in arguments]
+        try:
+            return list(self._executor().map(_call, [(method, args) for args in arguments]))
+        except BrokenProcessPool:
+            self.close()
+            raise
+
+    @property
+    def started(self) -> bool:
+        """Whether this process has live workers."""
+        return self._pool is not None and self._pid == os.getpid()
+
+    def close(self):
+        """Shut the workers down (a later :meth:`map` forks new ones); a no-op without workers."""
+        if self.started:
+            self._finalizer()
+        self._pool = self._pid = self._finalizer = None
+
+    def _executor(self):
+        if not self.started:                       # none yet, or inherited from the process that forked this one
+            self._pool = ProcessPoolExecutor(self.processes, mp_context=fork_context(), initializer=_start,
+                                             initargs=(self.target, self.after_fork))
+            self._pid = os.getpid()
+            self._finalizer = weakref.finalize(self, self._pool.shutdown, wait=True, cancel_futures=True)
+        return self._pool
+
+
+def _start(target, after_fork):
+    global _TARGET
+    _TARGET = target
+    if after_fork is not None:
+        after_fork()
+
+
+def _call(task):
+    method, args = task
+    return getattr(_TARGET, method)(*args)

@@ -1,0 +1,94 @@
+"""Workers: forked once, kept across calls, each with its own copy of the target; errors and dead workers."""
+
+import os
+import subprocess
+import sys
+import textwrap
+
+import pytest
+
+from breastcore.forward.workers import Workers
+
+
+class Counter:
+    """A target whose calls show where they ran and what its copy remembers."""
+
+    def __init__(self):
+        self.calls = 0
+
+    def where(self, value):
+        self.calls += 1
+        return os.getpid(), self.calls, value * value
+
+    def fails(self, value):
+        raise ValueError(f"bad value {value}")
+
+
+def test_workers_are_forked_once_and_keep_their_copy_of_the_target_across_calls():
+    target = Counter()
+    workers = Workers(target, 2)
+    assert not workers.started
+    try:
+        first = workers.map("where", [(i,) for i in range(6)])
+        assert workers.started
+        second = workers.map("where", [(i,) for i in range(6)])
+        assert [r[2] for r in first] == [r[2] for r in second] == [i * i for i in range(6)]    # in order
+        pids = {r[0] for r in first + second}
+        assert os.getpid() not in pids and 1 <= len(pids) <= 2     # the same (at most two) workers both times
+        for pid in pids:                                          # each copy counts its own calls, 1, 2, ...
+            counts = [r[1] for r in first + second if r[0] == pid]
+            assert counts == list(range(1, len(counts) + 1))
+        assert target.calls == 0                                  # the caller's object is not the workers'
+    finally:
+        workers.close()
+    assert not workers.started
+    again = Workers(target, 2)
+    try:
+        assert {r[0] for r in again.map("where", [(1,), (2,)])}.isdisjoint(pids)   # new workers after close
+    finally:
+        again.close()
+
+
+def test_one_process_runs_the_calls_here():
+    target = Counter()
+    workers = Workers(target, 1)
+    assert workers.map("where", [(3,), (4,)]) == [(os.getpid(), 1, 9), (os.getpid(), 2, 16)]
+    assert target.calls == 2 and not workers.started
+
+
+def test_an_error_in_a_worker_is_raised_here_and_the_workers_stay_usable():
+    workers = Workers(Counter(), 2)
+    try:
+        with pytest.raises(ValueError, match="bad value 2"):
+            workers.map("fails", [(2,), (3,)])
+        assert [r[2] for r in workers.map("where", [(5,), (6,)])] == [25, 36]
+    finally:
+        workers.close()
+
+
+def test_a_dead_worker_raises_broken_pool_and_the_next_call_forks_new_workers():
+    """In a fresh interpreter, for the reason given in test_parallel's dead-child test."""
+    script = textwrap.dedent("""
+        import os
+        from concurrent.futures.process import BrokenProcessPool
+        from breastcore.forward.workers import Workers
+
+        class Target:
+            def square(self, i):
+                if i == 1 and os.environ.get("DIE") == "1":
+                    os._exit(1)
+                return i * i
+
+        os.environ["DIE"] = "1"
+        workers = Workers(Target(), 2)
+        try:
+            workers.map("square", [(0,), (1,), (2,)])
+        except BrokenProcessPool:
+            print("broken", workers.started)
+        os.environ["DIE"] = "0"                     # the new workers are forked with this environment
+        print(workers.map("square", [(0,), (1,), (2,)]), workers.started)
+        workers.close()
+    """)
+    run = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=120)
+    assert run.returncode == 0, run.stderr
+    assert run.stdout.split("\n")[:2] == ["broken False", "[0, 1, 4] True"]
