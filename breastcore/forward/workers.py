@@ -11,6 +11,7 @@ factors and caches) from one call to the next, as a serial run keeps its own.
 
 from __future__ import annotations
 
+import multiprocessing as mp
 import os
 import weakref
 from concurrent.futures import ProcessPoolExecutor
@@ -37,10 +38,11 @@ class Workers:
     Notes
     -----
     Serial (the target's methods called here) where :func:`~breastcore.forward.parallel.can_fork`
-    says no. A worker that dies raises ``BrokenProcessPool`` in :meth:`map`, and the next call
-    forks new workers. A copy of a :class:`Workers` in another process (a forked child of the
-    caller's) forks workers of its own. The workers are shut down by :meth:`close`, or when
-    this object is garbage-collected, or at exit.
+    says no, and in a process that multiprocessing started (e.g. a ``fork_map`` worker running
+    a sensitivity's re-identifications): workers forked there hung in a test, and on two cores
+    nested workers only compete for them. A worker that dies raises ``BrokenProcessPool`` in
+    :meth:`map`, and the next call forks new workers. The workers are shut down by :meth:`close`,
+    or when this object is garbage-collected, or at exit.
     """
 
     def __init__(self, target, processes, after_fork=None):
@@ -50,7 +52,7 @@ class Workers:
     def map(self, method, arguments):
         """``[getattr(target, method)(*args) for args in arguments]``, in the workers; results in order."""
         arguments = list(arguments)
-        if not can_fork(min(self.processes, len(arguments))):
+        if not can_fork(min(self.processes, len(arguments))) or mp.parent_process() is not None:
             return [getattr(self.target, method)(*args) for args in arguments]
         try:
             return list(self._executor().map(_call, [(method, args) for args in arguments]))

@@ -92,3 +92,30 @@ def test_a_dead_worker_raises_broken_pool_and_the_next_call_forks_new_workers():
     run = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=120)
     assert run.returncode == 0, run.stderr
     assert run.stdout.split("\n")[:2] == ["broken False", "[0, 1, 4] True"]
+
+
+def test_workers_in_a_fork_map_worker_run_serially_there_and_let_it_exit():
+    """Workers forked inside a multiprocessing child hung it (found while writing these tests): there they run
+    serially. In a fresh interpreter with a timeout, so that a hang fails instead of blocking the suite."""
+    script = textwrap.dedent("""
+        import os
+        from breastcore.forward.parallel import fork_map
+        from breastcore.forward.workers import Workers
+
+        class Target:
+            def pid(self, i):
+                return os.getpid()
+
+        left_open = []
+
+        def job(i):
+            workers = Workers(Target(), 2)
+            left_open.append(workers)                 # never closed
+            pids = set(workers.map("pid", [(0,), (1,), (2,)]))
+            return pids == {os.getpid()} and not workers.started
+
+        print(fork_map(job, 2, processes=2))
+    """)
+    run = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=60)
+    assert run.returncode == 0, run.stderr
+    assert run.stdout.strip() == "[True, True]"
