@@ -61,8 +61,9 @@ def run(level: str, target, start, opts: IdentificationOptions, solver: str = "n
     """One identification from ``start``; the outcome as a JSON-able dict.
 
     ``time`` is the wall time of the whole :func:`identify` call (initial solve and
-    the final Jacobian included; with ``processes > 1`` the workers' fork, not their shutdown). ``forward_solves`` counts posture solves (one
-    evaluation of Λ solves three postures), as ``IdentificationResult`` does.
+    the final Jacobian included; with ``processes > 1`` the workers' fork, not their shutdown).
+    ``forward_solves`` counts posture solves (one evaluation of Λ solves three postures), as
+    ``IdentificationResult`` does.
     ``processes``: postures solved in this many processes (``MeasurementModel``).
     """
     mm = measurement_model(level, solver, processes)
