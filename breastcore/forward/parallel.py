@@ -10,7 +10,7 @@ from __future__ import annotations
 import multiprocessing as mp
 from concurrent.futures import ProcessPoolExecutor
 
-_CHILD_FUNCTION = None    # set in a forked worker only (by _start_child), never in the caller
+_CHILD_FUNCTION = None    # set in a forked worker only (by start_worker), never in the caller
 
 
 def fork_map(function, count, processes=1, after_fork=None):
@@ -28,9 +28,9 @@ def fork_map(function, count, processes=1, after_fork=None):
     if not can_fork(processes):
         return [function(i) for i in range(count)]
     # with fork, initargs reach the child through its copied memory, not pickling
-    with ProcessPoolExecutor(processes, mp_context=fork_context(), initializer=_start_child,
+    with ProcessPoolExecutor(processes, mp_context=fork_context(), initializer=start_worker,
                              initargs=(function, after_fork)) as pool:
-        return list(pool.map(_call, range(count)))
+        return list(pool.map(run_in_worker, range(count)))
 
 
 def can_fork(processes) -> bool:
@@ -44,12 +44,15 @@ def fork_context():
     return mp.get_context("fork")
 
 
-def _start_child(function, after_fork):
+def start_worker(function, after_fork):
+    """A forked worker's initializer: keep ``function`` (reached through copied memory) for
+    :func:`run_in_worker`, then run ``after_fork``."""
     global _CHILD_FUNCTION
     _CHILD_FUNCTION = function
     if after_fork is not None:
         after_fork()
 
 
-def _call(index):
-    return _CHILD_FUNCTION(index)
+def run_in_worker(argument):
+    """``function(argument)`` in a worker that :func:`start_worker` set up."""
+    return _CHILD_FUNCTION(argument)

@@ -11,15 +11,14 @@ factors and caches) from one call to the next, as a serial run keeps its own.
 
 from __future__ import annotations
 
+import functools
 import multiprocessing as mp
 import os
 import weakref
 from concurrent.futures import ProcessPoolExecutor
 from concurrent.futures.process import BrokenProcessPool
 
-from breastcore.forward.parallel import can_fork, fork_context
-
-_TARGET = None    # in a worker only (set by _start): the object whose methods the tasks call
+from breastcore.forward.parallel import can_fork, fork_context, run_in_worker, start_worker
 
 
 class Workers:
@@ -55,7 +54,7 @@ class Workers:
         if not can_fork(min(self.processes, len(arguments))) or mp.parent_process() is not None:
             return [getattr(self.target, method)(*args) for args in arguments]
         try:
-            return list(self._executor().map(_call, [(method, args) for args in arguments]))
+            return list(self._executor().map(run_in_worker, [(method, args) for args in arguments]))
         except BrokenProcessPool:
             self.close()
             raise
@@ -73,20 +72,13 @@ class Workers:
 
     def _executor(self):
         if not self.started:                       # none yet, or inherited from the process that forked this one
-            self._pool = ProcessPoolExecutor(self.processes, mp_context=fork_context(), initializer=_start,
-                                             initargs=(self.target, self.after_fork))
+            self._pool = ProcessPoolExecutor(self.processes, mp_context=fork_context(), initializer=start_worker,
+                                             initargs=(functools.partial(_call_method, self.target), self.after_fork))
             self._pid = os.getpid()
             self._finalizer = weakref.finalize(self, self._pool.shutdown, wait=True, cancel_futures=True)
         return self._pool
 
 
-def _start(target, after_fork):
-    global _TARGET
-    _TARGET = target
-    if after_fork is not None:
-        after_fork()
-
-
-def _call(task):
+def _call_method(target, task):
     method, args = task
-    return getattr(_TARGET, method)(*args)
+    return getattr(target, method)(*args)

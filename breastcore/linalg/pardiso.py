@@ -113,7 +113,7 @@ class _Pardiso:
         With ``mtype = −2`` and no scaling or weighted matching (``iparm[10] = iparm[12] = 0``,
         PARDISO's defaults for symmetric matrices, kept here) the analysis reads the pattern only,
         so zeros stand in for the values: the factors that follow are those of an analysis at the
-        first factorisation, bit for bit (``tests/linalg/test_pardiso_analysis.py``).
+        first factorisation, bit for bit (``tests/linalg/test_factorization.py``).
         """
         if not self.analysed:
             self._call(11, np.zeros(len(self.ja), dtype=self.dtype))
