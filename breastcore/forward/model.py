@@ -165,6 +165,22 @@ class ForwardModel:
         self._tangents[problem.slot] = (problem.params, problem.acceleration, problem.smoothing,
                                         np.array(position, dtype=float), factor)
 
+    def release_other_slots(self, slot):
+        """Free the kept tangents and the numeric factors of every posture slot but ``slot`` (their symbolic
+        analyses stay): a worker that solves one posture at a time then holds one posture's factors, as
+        a serial run holds each posture's once."""
+        self._tangents = {name: kept for name, kept in self._tangents.items() if name == slot}
+        for (_, name), pattern in self._patterns.items():
+            if name != slot:
+                pattern.release_factors()
+
+    def analyse_slots(self, fold_angle, postures):
+        """PARDISO's symbolic analysis of each posture's pattern, now (before forking workers, which
+        inherit it); nothing for the CG solver, which factorises nothing."""
+        if self.options.method == "newton":
+            for posture in postures:
+                analyse(self.pattern(fold_angle, posture.name))
+
     def release_tangents(self):
         """Drop the factors kept by :meth:`remember_tangent` (their PARDISO memory stays with the
         posture's handle until its next factorisation or :meth:`after_fork`)."""
@@ -235,8 +251,7 @@ class ForwardModel:
         if (processes or 1) > 1:
             # the symbolic analyses, here once: each forked worker inherits them (on ultra-thin 25 ms
             # a posture, which every worker of every call redid before)
-            for posture in postures:
-                analyse(self.pattern(params.fold_angle, posture.name))
+            self.analyse_slots(params.fold_angle, postures)
         outcomes = fork_map(solve, len(postures), processes or 1,
                             after_fork=functools.partial(self.after_fork, keep_analyses=True))
         for outcome in outcomes:

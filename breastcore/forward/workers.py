@@ -38,10 +38,13 @@ class Workers:
     -----
     Serial (the target's methods called here) where :func:`~breastcore.forward.parallel.can_fork`
     says no, and in a process that multiprocessing started (e.g. a ``fork_map`` worker running
-    a sensitivity's re-identifications): workers forked there hung in a test, and on two cores
-    nested workers only compete for them. A worker that dies raises ``BrokenProcessPool`` in
-    :meth:`map`, and the next call forks new workers. The workers are shut down by :meth:`close`,
-    or when this object is garbage-collected, or at exit.
+    a sensitivity's re-identifications): multiprocessing's exit of such a process joins its
+    children before anything shuts these workers down, and it hung in a test; on two cores nested
+    workers only compete for the cores anyway. A worker that dies raises ``BrokenProcessPool``
+    in :meth:`map` (also at the next call, if it died between calls), and the call after that
+    forks new workers. The workers are shut down by :meth:`close`, when this object is
+    garbage-collected (the pool holds the target weakly, so a target that holds this object
+    is collected too), or at exit.
     """
 
     def __init__(self, target, processes, after_fork=None):
@@ -72,11 +75,19 @@ class Workers:
 
     def _executor(self):
         if not self.started:                       # none yet, or inherited from the process that forked this one
-            self._pool = ProcessPoolExecutor(self.processes, mp_context=fork_context(), initializer=start_worker,
-                                             initargs=(functools.partial(_call_method, self.target), self.after_fork))
+            # the pool keeps its initargs: a strong reference there would keep the target, and so this
+            # object and its finalizer's pool, alive for ever (the finalizer registry holds the pool)
+            self._pool = ProcessPoolExecutor(self.processes, mp_context=fork_context(), initializer=_start,
+                                             initargs=(weakref.ref(self.target), self.after_fork))
             self._pid = os.getpid()
             self._finalizer = weakref.finalize(self, self._pool.shutdown, wait=True, cancel_futures=True)
         return self._pool
+
+
+def _start(target_ref, after_fork):
+    # alive here: a worker is forked, with fork, from within the call that submitted its first task,
+    # and that call's frames, copied into this process, still hold the target
+    start_worker(functools.partial(_call_method, target_ref()), after_fork)
 
 
 def _call_method(target, task):

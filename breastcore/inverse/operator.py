@@ -1,8 +1,9 @@
 """The observation operator ``Λ → M(Λ)``: forward solves in every posture, then measurements.
 
-It keeps no state between calls: a solve starts from the warm starts its caller passes
-(:class:`~breastcore.inverse.warm_start.WarmStarts`), or cold. It provides the two
-Jacobians of issue #3:
+A solve starts from the warm starts its caller passes
+(:class:`~breastcore.inverse.warm_start.WarmStarts`), or cold; the only state kept between calls
+is the forward model's caches and, with ``processes > 1``, its worker processes. It provides the
+two Jacobians of issue #3:
 
 - ``implicit``: at equilibrium ``g(u; p) = 0`` so ``du/dp = −K⁻¹ ∂g/∂p``, one
   back-substitution per parameter with the factorised exact Hessian ``K``;
@@ -58,7 +59,9 @@ class MeasurementModel:
         The postures are solved in this many forked worker processes (the same results bit
         for bit), forked at the first such solve and kept until :meth:`close`
         (:class:`~breastcore.forward.workers.Workers`): each keeps its copy of this model, as
-        it was then, with its PARDISO handles and caches. Worth it from the thin mesh up.
+        it was then (change nothing in a model whose workers run), with its PARDISO analyses
+        and caches, and the factors of the posture it solved last. Serial inside a process
+        that multiprocessing started (e.g. a ``fork_map`` worker). Worth it from the thin mesh up.
     reduced_snapshots : int
         0: solves beyond ``warm_radius`` are cold. n > 0 (default: that of
         :class:`~breastcore.inverse.options.IdentificationOptions`, 8): they start from
@@ -134,6 +137,8 @@ class MeasurementModel:
             starts = self._reduced_starts(params, starts, warm.history)
         if self.processes > 1:
             at = np.array(values, dtype=float) if jacobian else None
+            if not self._workers.started:               # the analyses once, here: the workers inherit them
+                self.model.analyse_slots(params.fold_angle, self.postures)
             solved = self._workers.map("_solve_posture", [(params, p, starts[p.name], at) for p in self.postures])
             for outcome in solved:                       # all have run: raise the first failure
                 if isinstance(outcome, SolveError):
@@ -150,6 +155,7 @@ class MeasurementModel:
     def _solve_posture(self, params, posture, start, jacobian_at=None):
         """One posture's equilibrium, in a worker of :meth:`solve` (a SolveError is returned, not raised); with
         ``jacobian_at`` (Λ), also its rows of :meth:`implicit_jacobian` there, which that then reuses."""
+        self.model.release_other_slots(posture.name)     # one posture's factors held at a time
         try:
             solution = self.model.solve(params, posture, start)
         except SolveError as err:
@@ -161,7 +167,8 @@ class MeasurementModel:
 
     def close(self):
         """Shut down the worker processes of :meth:`solve` (none with ``processes = 1``); a later
-        solve forks new ones. Also done when this model is garbage-collected, or at exit."""
+        solve forks new ones. Also done when this model is garbage-collected, or at exit; closing
+        (or a ``with`` block) frees the workers' memory at once."""
         self._workers.close()
 
     def __enter__(self):

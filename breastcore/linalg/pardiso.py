@@ -237,6 +237,11 @@ class SymmetricPattern:
             other.release_factor()
         return self.handle(single)
 
+    def release_factors(self):
+        """Free the numeric factors of this pattern's handles, keeping their symbolic analyses."""
+        for handle in self._handles.values():
+            handle.release_factor()
+
     def release(self):
         """Free PARDISO's memory for this pattern (it is re-analysed on next use)."""
         for handle in self._handles.values():

@@ -56,3 +56,20 @@ def test_the_implicit_jacobian_is_unchanged_by_the_reuse(monkeypatch):
     reused = mm.implicit_jacobian(values, solutions)
     monkeypatch.setattr(model, "_tangents", {})
     np.testing.assert_array_equal(mm.implicit_jacobian(values, solutions), reused)
+
+
+def test_releasing_the_other_slots_keeps_one_postures_factors_and_every_analysis():
+    model = ForwardModel(mesh_level("coarse"))
+    params = Parameters()
+    solved = {p.name: model.solve(params, p) for p in paper_postures()}
+    fold = params.fold_angle
+    held = {name: [h.numeric for h in model.pattern(fold, name)._handles.values()] for name in solved}
+    assert all(any(flags) for flags in held.values()) and set(model._tangents) == set(solved)
+    model.release_other_slots("bent45")
+    for name in solved:
+        handles = model.pattern(fold, name)._handles.values()
+        assert all(h.analysed for h in handles)
+        assert any(h.numeric for h in handles) == (name == "bent45")
+    assert set(model._tangents) == {"bent45"}
+    problem, factor = model.tangent(params, paper_postures()[0], solved["standing"].position)   # refactorised
+    assert factor.negative_pivots == 0

@@ -1,5 +1,7 @@
 """Workers: forked once, kept across calls, each with its own copy of the target; errors and dead workers."""
 
+import gc
+import multiprocessing as mp
 import os
 import subprocess
 import sys
@@ -119,3 +121,15 @@ def test_workers_in_a_fork_map_worker_run_serially_there_and_let_it_exit():
     run = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=60)
     assert run.returncode == 0, run.stderr
     assert run.stdout.strip() == "[True, True]"
+
+
+def test_a_target_that_holds_its_workers_is_collected_and_its_workers_shut_down():
+    before = {p.pid for p in mp.active_children()}
+    target = Counter()
+    target.workers = Workers(target, 2)                     # the cycle a MeasurementModel makes
+    target.workers.map("where", [(1,), (2,)])
+    ours = {p.pid for p in mp.active_children()} - before
+    assert ours                                             # the workers run
+    del target
+    gc.collect()
+    assert not ours & {p.pid for p in mp.active_children()}   # collected, and its workers joined

@@ -176,12 +176,14 @@ def test_an_identification_in_two_processes_equals_the_serial_one_bit_for_bit(pr
     start = TRUTH * np.array([1.2, 0.8, 1.2, 0.8, 1.2, 0.8])
     options = IdentificationOptions(max_iterations=3)
     serial = identify(MeasurementModel(mm.model, Parameters(), paper_postures()), target, start, options)
-    with MeasurementModel(mm.model, Parameters(), paper_postures(), processes=2) as parallel:
+    fresh = ForwardModel(mesh_level("coarse"))                # as a user starts: nothing solved in the parent
+    with MeasurementModel(fresh, Parameters(), paper_postures(), processes=2) as parallel:
         forked = identify(parallel, target, start, options)
         assert parallel._workers.started                    # the same workers served every evaluation
     assert not parallel._workers.started                    # closed on leaving the with block
     assert np.array_equal(np.array(forked.parameters), np.array(serial.parameters))
     assert np.array_equal(forked.cost, serial.cost) and forked.forward_solves == serial.forward_solves
+    assert np.array_equal(forked.jacobian, serial.jacobian)
 
 
 def test_a_failed_posture_in_a_worker_raises_its_solve_error(problem, monkeypatch):
@@ -195,8 +197,24 @@ def test_a_failed_posture_in_a_worker_raises_its_solve_error(problem, monkeypatc
         return solve(self, params, posture, start)
     monkeypatch.setattr(ForwardModel, "solve", fours_fails)          # before the workers are forked
     with MeasurementModel(mm.model, Parameters(), paper_postures(), processes=2) as parallel:
-        with pytest.raises(SolveError, match="fours"):
+        with pytest.raises(SolveError, match="fours") as raised:
             parallel.solve(TRUTH)
+        assert parallel._workers.started                    # raised by a worker, whose pool lives on
+        assert raised.value.posture == "fours" and raised.value.iterations == 1     # its diagnostics, unpickled
+
+
+def test_a_model_in_two_processes_is_collected_and_its_workers_shut_down(problem):
+    import gc
+    import multiprocessing as mp
+    mm, _, _ = problem
+    before = {p.pid for p in mp.active_children()}
+    parallel = MeasurementModel(mm.model, Parameters(), paper_postures(), processes=2)
+    parallel.solve(TRUTH)
+    ours = {p.pid for p in mp.active_children()} - before
+    assert ours
+    del parallel                                              # not closed
+    gc.collect()
+    assert not ours & {p.pid for p in mp.active_children()}
 
 
 def test_jacobian_rows_from_the_workers_equal_the_serial_jacobian(problem, monkeypatch):
