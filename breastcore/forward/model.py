@@ -8,7 +8,6 @@ through the smooth :class:`~breastcore.model.geometry.CapMap`; each posture is s
 from __future__ import annotations
 
 import collections
-import dataclasses
 import functools
 
 import numpy as np
@@ -21,7 +20,7 @@ from breastcore.forward.continuation import solve_posture
 from breastcore.forward.equilibrium import EquilibriumProblem
 from breastcore.forward.options import SolverOptions
 from breastcore.forward.parallel import fork_map
-from breastcore.forward.records import PostureSolution, SolveError
+from breastcore.forward.records import PostureSolution, SolveError, raise_first_failure
 from breastcore.linalg.factorization import Factorization, analyse
 from breastcore.model.geometry import CapMap
 from breastcore.model.mesh import CapMesh, refold
@@ -218,18 +217,15 @@ class ForwardModel:
             assembler._pattern = None
         self._patterns = {}
 
-    def solve_postures(self, params: Parameters, postures, starts=None, processes=1,
-                       finish=None) -> list[PostureSolution]:
+    def solve_postures(self, params: Parameters, postures, starts=None, processes=1) -> list[PostureSolution]:
         """Equilibria of several postures, optionally in ``processes`` forked worker processes.
 
         The postures are independent solves, so running them in parallel gives the
         same results bit for bit (PARDISO runs single-threaded, see
         :data:`breastcore.linalg.pardiso.PARDISO_THREADS_ENV`). ``starts`` maps a posture
         name to a warm start. Falls back to one process where ``fork`` is not
-        available or this process may not have children (a daemon). ``finish(posture,
-        solution)``, if given, runs in the worker after each successful solve and
-        returns a dict of :class:`PostureSolution` fields to set on it (work on the solution
-        that then runs in parallel too, e.g. its Jacobian rows).
+        available or this process may not have children (a daemon). Workers are forked at
+        every call; an identification keeps its own (:class:`~breastcore.forward.workers.Workers`).
 
         Raises
         ------
@@ -241,20 +237,13 @@ class ForwardModel:
 
         def solve(index):                                  # a SolveError is returned, so that all run
             try:
-                solution = self.solve(params, postures[index], starts.get(postures[index].name))
+                return self.solve(params, postures[index], starts.get(postures[index].name))
             except SolveError as err:
                 return err
-            if finish is not None:
-                solution = dataclasses.replace(solution, **finish(postures[index], solution))
-            return solution
 
         if (processes or 1) > 1:
             # the symbolic analyses, here once: each forked worker inherits them (on ultra-thin 25 ms
             # a posture, which every worker of every call redid before)
             self.analyse_slots(params.fold_angle, postures)
-        outcomes = fork_map(solve, len(postures), processes or 1,
-                            after_fork=functools.partial(self.after_fork, keep_analyses=True))
-        for outcome in outcomes:
-            if isinstance(outcome, SolveError):
-                raise outcome
-        return outcomes
+        return raise_first_failure(fork_map(solve, len(postures), processes or 1,
+                                            after_fork=functools.partial(self.after_fork, keep_analyses=True)))

@@ -52,6 +52,15 @@ def _rebuild_solve_error(message, fields):
     return SolveError(message, **fields)
 
 
+def raise_first_failure(outcomes):
+    """``outcomes`` (a list of solutions), or the first :class:`SolveError` among them raised: the
+    postures of a parallel solve all run, and return their failures instead of raising them."""
+    for outcome in outcomes:
+        if isinstance(outcome, SolveError):
+            raise outcome
+    return outcomes
+
+
 @dataclass(frozen=True)
 class PostureSolution:
     """Equilibrium of one posture. Positions in m, forces in N, energy in J."""

@@ -20,7 +20,7 @@ import numpy as np
 
 from breastcore.fem.terms import BulkNeoHookean, SkinMembrane, modulus_gradient
 from breastcore.forward.model import ForwardModel
-from breastcore.forward.records import SolveError
+from breastcore.forward.records import SolveError, raise_first_failure
 from breastcore.forward.reduced import reduced_start
 from breastcore.forward.workers import Workers
 from breastcore.inverse.measurements import QUANTITIES, measure
@@ -139,10 +139,8 @@ class MeasurementModel:
             at = np.array(values, dtype=float) if jacobian else None
             if not self._workers.started:               # the analyses once, here: the workers inherit them
                 self.model.analyse_slots(params.fold_angle, self.postures)
-            solved = self._workers.map("_solve_posture", [(params, p, starts[p.name], at) for p in self.postures])
-            for outcome in solved:                       # all have run: raise the first failure
-                if isinstance(outcome, SolveError):
-                    raise outcome
+            solved = raise_first_failure(self._workers.map("_solve_posture",
+                                                           [(params, p, starts[p.name], at) for p in self.postures]))
             solutions = {p.name: s for p, s in zip(self.postures, solved)}
             self.solves += len(self.postures)
         else:

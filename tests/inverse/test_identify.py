@@ -2,6 +2,8 @@
 the paper's Gauss-Newton, rejected failed solves, and the output dataset."""
 
 import dataclasses
+import gc
+import multiprocessing as mp
 import re
 
 import numpy as np
@@ -204,8 +206,6 @@ def test_a_failed_posture_in_a_worker_raises_its_solve_error(problem, monkeypatc
 
 
 def test_a_model_in_two_processes_is_collected_and_its_workers_shut_down(problem):
-    import gc
-    import multiprocessing as mp
     mm, _, _ = problem
     before = {p.pid for p in mp.active_children()}
     parallel = MeasurementModel(mm.model, Parameters(), paper_postures(), processes=2)
