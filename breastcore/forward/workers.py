@@ -12,6 +12,7 @@ factors and caches) from one call to the next, as a serial run keeps its own.
 from __future__ import annotations
 
 import functools
+import logging
 import multiprocessing as mp
 import os
 import weakref
@@ -19,6 +20,8 @@ from concurrent.futures import ProcessPoolExecutor
 from concurrent.futures.process import BrokenProcessPool
 
 from breastcore.forward.parallel import can_fork, fork_context, run_in_worker, start_worker
+
+log = logging.getLogger(__name__)
 
 
 class Workers:
@@ -40,9 +43,10 @@ class Workers:
     says no, and in a process that multiprocessing started (e.g. a ``fork_map`` worker running
     a sensitivity's re-identifications): multiprocessing's exit of such a process joins its
     children before anything shuts these workers down, and it hung in a test; on two cores nested
-    workers only compete for the cores anyway. A worker that dies raises ``BrokenProcessPool``
-    in :meth:`map` (also at the next call, if it died between calls), and the call after that
-    forks new workers. The workers are shut down by :meth:`close`, when this object is
+    workers only compete for the cores anyway. If a worker dies (killed, or a crash in native
+    code), during a call or between calls, :meth:`map` forks new workers and runs the call again,
+    once: a task that kills its worker again raises ``BrokenProcessPool``, and the next call forks
+    new workers. The tasks must therefore be safe to repeat (the solves are). The workers are shut down by :meth:`close`, when this object is
     garbage-collected (the pool holds the target weakly, so a target that holds this object
     is collected too), or at exit.
     """
@@ -56,11 +60,15 @@ class Workers:
         arguments = list(arguments)
         if not can_fork(min(self.processes, len(arguments))) or mp.parent_process() is not None:
             return [getattr(self.target, method)(*args) for args in arguments]
-        try:
-            return list(self._executor().map(run_in_worker, [(method, args) for args in arguments]))
-        except BrokenProcessPool:
-            self.close()
-            raise
+        tasks = [(method, args) for args in arguments]
+        for attempt in range(2):
+            try:
+                return list(self._executor().map(run_in_worker, tasks))
+            except BrokenProcessPool:
+                self.close()
+                if attempt:
+                    raise
+                log.warning("a worker process died; forking new workers and running the call again")
 
     @property
     def started(self) -> bool:

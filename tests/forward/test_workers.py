@@ -68,8 +68,8 @@ def test_an_error_in_a_worker_is_raised_here_and_the_workers_stay_usable():
         workers.close()
 
 
-def test_a_dead_worker_raises_broken_pool_and_the_next_call_forks_new_workers():
-    """In a fresh interpreter, for the reason given in test_parallel's dead-child test."""
+def test_a_task_that_kills_its_worker_twice_raises_broken_pool_and_the_next_call_forks_new_workers():
+    """The call is run again once, on new workers, and its task kills one again. In a fresh interpreter, for the reason given in test_parallel's dead-child test."""
     script = textwrap.dedent("""
         import os
         from concurrent.futures.process import BrokenProcessPool
@@ -94,6 +94,32 @@ def test_a_dead_worker_raises_broken_pool_and_the_next_call_forks_new_workers():
     run = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=120)
     assert run.returncode == 0, run.stderr
     assert run.stdout.split("\n")[:2] == ["broken False", "[0, 1, 4] True"]
+
+
+def test_a_worker_killed_between_calls_is_replaced_and_the_next_call_succeeds():
+    """Before, the call after a worker's death between calls raised BrokenProcessPool (its pool was broken)."""
+    script = textwrap.dedent("""
+        import os, signal, time
+        from breastcore.forward.workers import Workers
+
+        class Target:
+            def where(self, i):
+                time.sleep(0.05)                    # both workers take a task
+                return os.getpid(), i * i
+
+        workers = Workers(Target(), 2)
+        first = workers.map("where", [(0,), (1,)])
+        pids = {pid for pid, _ in first}
+        os.kill(min(pids), signal.SIGKILL)
+        time.sleep(0.5)                             # the pool notices the death while idle
+        second = workers.map("where", [(2,), (3,)])
+        print([value for _, value in second], workers.started, {pid for pid, _ in second}.isdisjoint(pids))
+        workers.close()
+    """)
+    run = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=120)
+    assert run.returncode == 0, run.stderr
+    assert run.stdout.split("\n")[0] == "[4, 9] True True"
+    assert "forking new workers and running the call again" in run.stderr
 
 
 def test_workers_in_a_fork_map_worker_run_serially_there_and_let_it_exit():
