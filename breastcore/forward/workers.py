@@ -46,9 +46,9 @@ class Workers:
     workers only compete for the cores anyway. If a worker dies (killed, or a crash in native
     code), during a call or between calls, :meth:`map` forks new workers and runs the call again,
     once: a task that kills its worker again raises ``BrokenProcessPool``, and the next call forks
-    new workers. The tasks must therefore be safe to repeat (the solves are). The workers are shut down by :meth:`close`, when this object is
-    garbage-collected (the pool holds the target weakly, so a target that holds this object
-    is collected too), or at exit.
+    new workers. The tasks must therefore be safe to repeat (the solves are). The workers are
+    shut down by :meth:`close`, when this object is garbage-collected (the pool holds the target
+    weakly, so a target that holds this object is collected too), or at exit.
     """
 
     def __init__(self, target, processes, after_fork=None):

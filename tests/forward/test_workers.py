@@ -69,7 +69,8 @@ def test_an_error_in_a_worker_is_raised_here_and_the_workers_stay_usable():
 
 
 def test_a_task_that_kills_its_worker_twice_raises_broken_pool_and_the_next_call_forks_new_workers():
-    """The call is run again once, on new workers, and its task kills one again. In a fresh interpreter, for the reason given in test_parallel's dead-child test."""
+    """The call is run again once, on new workers, and its task kills one again. In a fresh interpreter,
+    for the reason given in test_parallel's dead-child test."""
     script = textwrap.dedent("""
         import os
         from concurrent.futures.process import BrokenProcessPool
