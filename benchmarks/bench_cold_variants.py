@@ -62,8 +62,8 @@ from breastcore.model.postures import paper_postures  # noqa: E402
 from breastcore.nonlinear.newton import newton  # noqa: E402
 
 #: The solver settings before issue #21: the reference every variant is timed against.
-BEFORE = {"smoothing_start": 1e-4, "reuse_factor": 0.0, "sliding_dual": False, "inertia_shift": False,
-          "mixed_precision_min_dofs": 100_000}
+BEFORE = {"smoothing_start": 1e-4, "reuse_factor": 0.0, "sliding_dual": False, "sliding_release": False,
+          "inertia_shift": False, "mixed_precision_min_dofs": 100_000}
 VARIANTS = {
     "before-21": (BEFORE, newton),
     "default": ({}, newton),

@@ -15,14 +15,17 @@ other, so that a drift of the machine falls on all of them. A variant sets
 :class:`~breastcore.forward.options.SolverOptions` keys in the job's solver spec, for the
 identification's forward solves only (the truth is the workflow's):
 
-Every variant spells out all ten settings (``smoothing_start``, ``reuse_factor``, ``sliding_dual``,
-``inertia_shift``, ``mixed_precision_min_dofs``, ``step_rtol``, ``skip_futile_shifts``, the smoothing δ,
+Every variant spells out all eleven settings (``smoothing_start``, ``reuse_factor``, ``sliding_dual``,
+``sliding_release``, ``inertia_shift``, ``mixed_precision_min_dofs``, ``step_rtol``, ``skip_futile_shifts``, the smoothing δ,
 ``reduced_snapshots``, ``tangent_starts``), so that its meaning does not move with the shipped defaults:
 
 - ``default``: today's path (no δ phase, chord steps 0.5, tangent-predictor starts after each
   Jacobian, reduced starts over 8 snapshots before the first, primal-dual sliding blocks,
-  inertia shifts where they can help, single-precision factors, inexact Newton directions);
-- ``no-tangent``: ``default`` without the tangent-predictor starts (``tangent_starts = False``),
+  inertia shifts where they can help, single-precision factors, inexact Newton directions,
+  released sliding steps);
+- ``no-release``: ``default`` without the released sliding steps (``sliding_release = False``),
+  the default path from 0ec3832 to 8605383;
+- ``no-tangent``: ``no-release`` without the tangent-predictor starts (``tangent_starts = False``),
   the default path from fd093bc to 0ec3832;
 - ``exact-steps``: the default path of 2026-12-02: ``default`` with exact-Hessian steps, the
   PSD projection and double-precision factors on the paper's levels;
@@ -78,12 +81,14 @@ from breastcore.io.datasets import open_dataset  # noqa: E402
 from breastcore.stages.identify import run_identify  # noqa: E402
 
 #: The solver settings before issue #21, and today's.
-BEFORE = {"smoothing_start": 1e-4, "reuse_factor": 0.0, "sliding_dual": False, "inertia_shift": False,
-          "mixed_precision_min_dofs": 100_000, "step_rtol": 1e-10, "skip_futile_shifts": False}
-NEW = {"smoothing_start": 1e-6, "reuse_factor": 0.5, "sliding_dual": True, "inertia_shift": True,
-       "mixed_precision_min_dofs": 0, "step_rtol": 1e-3, "skip_futile_shifts": True}
+BEFORE = {"smoothing_start": 1e-4, "reuse_factor": 0.0, "sliding_dual": False, "sliding_release": False,
+          "inertia_shift": False, "mixed_precision_min_dofs": 100_000, "step_rtol": 1e-10, "skip_futile_shifts": False}
+NEW = {"smoothing_start": 1e-6, "reuse_factor": 0.5, "sliding_dual": True, "sliding_release": True,
+       "inertia_shift": True, "mixed_precision_min_dofs": 0, "step_rtol": 1e-3, "skip_futile_shifts": True}
+#: The default path from 0ec3832 to 8605383: the primal-dual sliding steps without released nodes.
+UNRELEASED = {**NEW, "sliding_release": False}
 #: The default path of 2026-12-03 (6827140 to 7915c56): every direction refined, every shift tried.
-REFINED = {**NEW, "step_rtol": 1e-10, "skip_futile_shifts": False}
+REFINED = {**UNRELEASED, "step_rtol": 1e-10, "skip_futile_shifts": False}
 #: The default path of 2026-12-02: exact-Hessian steps, the PSD projection, double precision.
 EXACT = {**REFINED, "sliding_dual": False, "inertia_shift": False, "mixed_precision_min_dofs": 100_000}
 COLD = {"reduced_snapshots": 0, "tangent_starts": False}
@@ -92,7 +97,8 @@ REDUCED8 = {"reduced_snapshots": 8, "tangent_starts": False}
 #: Variant name → (SolverOptions keys, model constants, IdentificationOptions keys) of the identification.
 VARIANTS = {
     "default": (NEW, {}, {"reduced_snapshots": 8, "tangent_starts": True}),
-    "no-tangent": (NEW, {}, REDUCED8),
+    "no-release": (UNRELEASED, {}, {"reduced_snapshots": 8, "tangent_starts": True}),
+    "no-tangent": (UNRELEASED, {}, REDUCED8),
     "before-21": (BEFORE, {}, COLD),
     "chord0.5": ({**BEFORE, "reuse_factor": 0.5}, {}, COLD),
     "no-delta-phase": ({**BEFORE, "smoothing_start": 1e-6}, {}, COLD),

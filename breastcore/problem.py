@@ -156,10 +156,11 @@ class ProblemSpec:
 #: ``mixed_precision_min_dofs`` 100000: the module threshold of then.
 #: ``step_rtol`` 1e-10, ``skip_futile_shifts`` False: every Newton direction refined to 1e-10, and the
 #: inertia shifts tried at every indefinite step.
+#: ``sliding_release`` False: the primal-dual sliding steps without released nodes.
 #: ``tangent_starts`` False: solves after a Jacobian started from the plain warm or the reduced start.
 ADDED_FIELDS = {"SolverOptions": {"reuse_factor": 0.0, "sliding_dual": False, "inertia_shift": False,
                                   "mixed_precision_min_dofs": 100_000, "step_rtol": 1e-10,
-                                  "skip_futile_shifts": False},
+                                  "skip_futile_shifts": False, "sliding_release": False},
                 "IdentificationOptions": {"tangent_starts": False}}
 
 

@@ -31,7 +31,7 @@ CONSTANTS = dict(skin_thickness=1.2e-3, density=1010.0, gravity_magnitude=9.8, c
                  fold_angle=170.0)
 SOLVER = dict(method="newton", rtol=1e-7, stage_rtol=2e-5, smoothing_start=2e-4, max_iterations=90,
               min_step=1 / 128, cg_max_iterations=15000, max_extensions=3, max_final_attempts=2,
-              reuse_factor=0.25, sliding_dual=False, inertia_shift=False,
+              reuse_factor=0.25, sliding_dual=False, sliding_release=False, inertia_shift=False,
               mixed_precision_min_dofs=5000, step_rtol=1e-4, skip_futile_shifts=False)
 IDENTIFICATION = dict(method="lm", jacobian="implicit", fd_step=2e-4, cost_tol=1e-13, cost_rtol=0.01, xtol=1e-7,
                       ftol=1e-7, gtol=1e-9, max_iterations=3, noise=0.05, initial_trust_radius=0.4,
@@ -112,6 +112,17 @@ def test_a_spec_written_before_the_inexact_steps_reads_with_refined_steps_and_ev
     assert read == dataclasses.replace(spec, solver=dataclasses.replace(
         spec.solver, step_rtol=1e-10, skip_futile_shifts=False))
     assert spec.solver.step_rtol == 1e-4 and spec.solver.skip_futile_shifts
+
+
+def test_a_spec_written_before_the_released_sliding_steps_reads_without_them():
+    """Datasets written before ``sliding_release`` stepped with the primal-dual sliding blocks alone."""
+    spec = non_default_spec()
+    spec = dataclasses.replace(spec, solver=dataclasses.replace(spec.solver, sliding_release=True))
+    data = spec.as_dict()
+    del data["solver"]["sliding_release"]
+    read = ProblemSpec.from_dict(data)
+    assert read == dataclasses.replace(spec, solver=dataclasses.replace(spec.solver, sliding_release=False))
+    assert spec.solver.sliding_release
 
 
 def test_a_spec_written_before_the_tangent_starts_reads_without_them():

@@ -14,7 +14,8 @@ class EquilibriumProblem:
     """``J_h`` on the free dofs for one parameter set, gravity vector and δ, on the mesh of ``model``
     (a :class:`~breastcore.forward.model.ForwardModel`)."""
 
-    def __init__(self, model, params: Parameters, acceleration, smoothing, sliding_dual=False, slot=None):
+    def __init__(self, model, params: Parameters, acceleration, smoothing, sliding_dual=False, slot=None,
+                 sliding_release=False):
         self.model, self.params, self.slot = model, params, slot
         self.acceleration, self.smoothing = np.asarray(acceleration, dtype=float), float(smoothing)
         self.reference = model.reference(params.R, params.H)
@@ -24,6 +25,8 @@ class EquilibriumProblem:
         self.energy = Composite([bulk, skin, gravity, sliding])
         #: The Chassaignac dual state of the Newton steps (None: steps with the exact Hessian).
         self.sliding_dual = SlidingDual(sliding) if sliding_dual else None
+        #: Whether Newton's steps release sticking back nodes (:meth:`step_gradient`; needs ``sliding_dual``).
+        self.sliding_release = bool(sliding_release) and sliding_dual
         load = float(np.linalg.norm(self.gravity.load))
         self.energy_scale = max(load, 1e-30) * params.R
         self.length_scale = params.R
@@ -56,6 +59,17 @@ class EquilibriumProblem:
         terms = tuple(self.sliding_dual if term is self.sliding_dual.term else term
                       for term in self.energy.nonlinear_terms)
         return self.assembler.assemble_terms(terms, self.full(z), project)
+
+    def step_gradient(self, z, g):
+        """The right-hand side of Newton's step at ``z``, where the gradient is ``g`` (free dofs, N):
+        ``g`` itself, or with ``sliding_release`` the forces of the back nodes that
+        :meth:`SlidingDual.release <breastcore.fem.sliding_dual.SlidingDual.release>` releases
+        saturated (it also sets their blocks in :meth:`step_hessian` at ``z``)."""
+        if not self.sliding_release:
+            return g
+        x = self.full(z)
+        correction = self.sliding_dual.release(x, self.assembler.expand(g, np.zeros_like(x)))
+        return g + self.free(correction)
 
     @property
     def pattern(self):

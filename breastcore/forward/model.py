@@ -142,7 +142,8 @@ class ForwardModel:
     def problem(self, params, posture, load_factor=1.0, smoothing=None):
         accel = load_factor * posture.gravity(params.gravity_magnitude)
         return EquilibriumProblem(self, params, accel, params.smoothing if smoothing is None else smoothing,
-                                  sliding_dual=self.options.sliding_dual, slot=posture.name)
+                                  sliding_dual=self.options.sliding_dual, slot=posture.name,
+                                  sliding_release=self.options.sliding_release)
 
     def tolerance(self, params, posture):
         """Absolute stopping tolerance: ``rtol`` × ‖gravity load vector‖ (N).

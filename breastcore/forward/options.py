@@ -48,9 +48,18 @@ class SolverOptions:
         Newton steps with the primal-dual sliding blocks of
         :class:`~breastcore.fem.sliding_dual.SlidingDual` (Chan-Golub-Mulet) instead of the
         exact Hessian's. The energy and the tolerance are unchanged; back nodes that go from
-        sticking to slipping take fewer steps. Default True (issue #21, with the two options
-        below: 0.7× the time of ultra-thin Table-1 identifications, docs/benchmarks.md).
+        sticking to slipping take fewer steps. Default True (issue #21, with ``inertia_shift`` and
+        ``mixed_precision_min_dofs``: 0.7× the time of ultra-thin Table-1 identifications,
+        docs/benchmarks.md).
         False: the exact Hessian, the method before.
+    sliding_release : bool
+        With ``sliding_dual``: a Newton step treats the sticking back nodes that the body pulls
+        past 1.05 × the sliding threshold as slipping (a semismooth step of the unsmoothed law,
+        ``SlidingDual.release``), so that the slip zone does not
+        widen by one ring of nodes per iteration. Default True (0.85× the factorisations of the
+        cold solves at Λ̄ on ultra-thin, reference and fine10k; docs/benchmarks.md, "Released
+        sliding steps"); False: the primal-dual steps alone, the method before. Without
+        ``sliding_dual`` it has no effect.
     inertia_shift : bool
         Newton's indefinite steps (:func:`~breastcore.nonlinear.newton.newton`'s
         ``inertia_shift``): a diagonal shift just large enough for a positive-definite
@@ -100,6 +109,7 @@ class SolverOptions:
     max_final_attempts: int = 3
     reuse_factor: float = 0.5
     sliding_dual: bool = True
+    sliding_release: bool = True
     inertia_shift: bool = True
     mixed_precision_min_dofs: int = 0
     step_rtol: float = 1e-3
@@ -117,7 +127,7 @@ class SolverOptions:
             raise ValueError(f"solver option step_rtol must be in [{REFINEMENT_RTOL:g}, 1) (below it the "
                              f"refinement cannot get), got {self.step_rtol!r}")
         object.__setattr__(self, "step_rtol", float(self.step_rtol))
-        for name in ("sliding_dual", "inertia_shift", "skip_futile_shifts"):
+        for name in ("sliding_dual", "sliding_release", "inertia_shift", "skip_futile_shifts"):
             if not isinstance(getattr(self, name), (bool, np.bool_)):
                 raise ValueError(f"solver option {name} must be true or false, got {getattr(self, name)!r}")
             object.__setattr__(self, name, bool(getattr(self, name)))       # JSON-able in the spec

@@ -27,6 +27,10 @@ by ``K + σ |diag K|`` for σ in :data:`INERTIA_SHIFTS`, the first whose factor 
 pivot: the PSD projection stiffens every skin and bulk block, so its steps along a soft mode
 are far too short (the line search then doubles them up to 2¹⁰), while a shift just large
 enough for positive definiteness keeps the rest of the curvature.
+
+The directions solve for ``problem.step_gradient(z, g)`` where the problem has one (sliding nodes
+released by :meth:`~breastcore.fem.sliding_dual.SlidingDual.release`), else for the gradient ``g``;
+the descent test and the line search always use ``g``.
 """
 
 from __future__ import annotations
@@ -213,7 +217,8 @@ def newton(problem, z0, tolerance, max_iterations=50, avoid_saddles=False, reuse
         step, z_new, energy_new = accepted
         g_next = None
         if step_rtol > REFINEMENT_RTOL and used is not None:
-            z_new, energy_new, g_next = _refined_if_last(problem, used, z, g, step, z_new, energy_new, tolerance)
+            z_new, energy_new, g_next = _refined_if_last(problem, used[0], z, used[1], step, z_new, energy_new,
+                                                         tolerance)
         z, energy = z_new, energy_new
         energies.append(energy)
         log.debug("newton it=%d |g|=%.3e step=%.3g E=%.9e mode=%s neg=%s", it, g_norm, step, energy, mode,
@@ -236,24 +241,24 @@ class _Steps:
         self.factorizations = self.projected = 0
 
     def take(self, z, energy, g, g_norm, history):
-        """``(accepted, mode, factor)``: the line search's outcome (None: no descent step), the step's
-        mode, and the factor of its unmodified direction (None for a modified one)."""
+        """``(accepted, mode, used)``: the line search's outcome (None: no descent step), the step's
+        mode, and ``(factor, right-hand side)`` of its unmodified direction (None for a modified one)."""
         if self.kept is not None and g_norm <= self.reuse * history[-2]:
             accepted = _chord_step(self.problem, self.kept, z, energy, g, g_norm, self.step_rtol)
             if accepted is not None:
-                return accepted, "chord", self.kept
-        accepted, mode, factor, tried = _fresh_step(self.problem, z, energy, g, g_norm, self.pattern,
-                                                    self.avoid_saddles, self.shifts, self.step_rtol)
+                return accepted, "chord", (self.kept, g)
+        accepted, mode, factor, tried, rhs = _fresh_step(self.problem, z, energy, g, g_norm, self.pattern,
+                                                         self.avoid_saddles, self.shifts, self.step_rtol)
         self.factorizations += tried
         self.inertia = None if factor is None else factor.negative_pivots
         self.projected += accepted is not None and mode != "exact"
         exact = accepted is not None and mode == "exact"
         self.kept = factor if exact and self.reuse > 0 else None
-        return accepted, mode, factor if exact else None
+        return accepted, mode, (factor, rhs) if exact else None
 
 
-def _refined_if_last(problem, factor, z0, g, step, z, energy, tolerance):
-    """``(z, energy, gradient at z)`` after an inexact step from ``z0`` along ``factor``'s direction;
+def _refined_if_last(problem, factor, z0, rhs, step, z, energy, tolerance):
+    """``(z, energy, gradient at z)`` after an inexact step from ``z0`` along ``−factor⁻¹ rhs``;
     where that step ends the solve (``|g(z)| ≤ tolerance``), the same step along the direction
     refined to ``REFINEMENT_RTOL``, if that point is an equilibrium to the tolerance too.
 
@@ -268,7 +273,7 @@ def _refined_if_last(problem, factor, z0, g, step, z, energy, tolerance):
     if not _norm(g_new) <= tolerance or not factor.mixed:
         return z, energy, g_new
     try:
-        d = -factor.solve(g)
+        d = -factor.solve(rhs)
     except (RuntimeError, ValueError):
         return z, energy, g_new
     refined = z0 + step * d
@@ -298,34 +303,37 @@ def _fresh_step(problem, z, energy, g, g_norm, pattern, avoid_saddles, shifts=No
     else that shifted.
 
     ``shifts``: a :class:`_Shifts` (None: no shifts). Returns ``(accepted, mode, exact_factor,
-    factorisations)``: ``accepted`` as
+    factorisations, rhs)``: ``accepted`` as
     :func:`~breastcore.nonlinear.line_search._line_search` (None if no mode gave a descent
-    step), the mode that gave it, and the exact Hessian's factor (its inertia; None if it
-    failed).
+    step), the mode that gave it, the exact Hessian's factor (its inertia; None if it
+    failed), and the right-hand side the directions solved for: ``problem.step_gradient(z, g)``
+    where the problem has one (released sliding nodes), else ``g``. The descent test and the line
+    search use ``g``.
     """
     hessian = getattr(problem, "step_hessian", problem.hessian)
+    rhs = problem.step_gradient(z, g) if hasattr(problem, "step_gradient") else g
     inertia_shift = shifts is not None and shifts.enabled
     exact, tried = None, 0
     K = hessian(z, project=False)
     tried += 1
-    factor, d = factor_solve(K, g, pattern, step_rtol)
+    factor, d = factor_solve(K, rhs, pattern, step_rtol)
     exact = factor
     indefinite = factor is not None and bool(factor.negative_pivots)
     if d is not None and _descends(g, g_norm, d) and not (indefinite and (avoid_saddles or inertia_shift)):
         accepted = _line_search(problem, z, d, energy, g, g_norm)
         if accepted is not None:
-            return accepted, "exact", exact, tried
+            return accepted, "exact", exact, tried, rhs
     if inertia_shift and factor is not None and factor.negative_pivots is not None and \
             shifts.wanted(factor.negative_pivots):
         scale = np.abs(K.diagonal())
         for sigma in INERTIA_SHIFTS:
             tried += 1
-            shifted, d = factor_solve(shift_diagonal(K, sigma * scale), g, pattern, step_rtol)
+            shifted, d = factor_solve(shift_diagonal(K, sigma * scale), rhs, pattern, step_rtol)
             if shifted is None or shifted.negative_pivots or not _descends(g, g_norm, d):
                 continue
             accepted = _line_search(problem, z, d, energy, g, g_norm, expand=True)
             if accepted is not None:
-                return accepted, f"shift{sigma:g}", exact, tried
+                return accepted, f"shift{sigma:g}", exact, tried, rhs
         if factor.negative_pivots:                                   # (a definite K whose step failed: not a verdict)
             shifts.failed(factor.negative_pivots)
     for mode in ("project", "shift"):
@@ -333,13 +341,13 @@ def _fresh_step(problem, z, energy, g, g_norm, pattern, avoid_saddles, shifts=No
         K = hessian(z, project=True)
         if mode == "shift":
             K = shift_diagonal(K, 1e-6 * abs(K.diagonal()).max())
-        _, d = factor_solve(K, g, pattern, step_rtol)
+        _, d = factor_solve(K, rhs, pattern, step_rtol)
         if d is None or not _descends(g, g_norm, d):
             continue
         accepted = _line_search(problem, z, d, energy, g, g_norm, expand=True)
         if accepted is not None:
-            return accepted, mode, exact, tried
-    return None, mode, exact, tried
+            return accepted, mode, exact, tried, rhs
+    return None, mode, exact, tried, rhs
 
 
 def _chord_step(problem, factor, z, energy, g, g_norm, step_rtol=REFINEMENT_RTOL):

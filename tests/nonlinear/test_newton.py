@@ -135,7 +135,31 @@ def test_sliding_dual_and_inertia_shift_give_the_same_cap_equilibrium_on_coarse(
     assert np.max(np.abs(m_dual / m_exact - 1.0)) < 1e-7
 
 
-@pytest.mark.parametrize("name", ["sliding_dual", "inertia_shift"])
+@pytest.mark.parametrize("posture", [0, 2], ids=["standing", "fours"])
+def test_released_sliding_steps_give_the_same_equilibrium_on_medium(monkeypatch, posture):
+    """``sliding_release`` changes the steps only: it does release nodes on the way, none at the
+    equilibrium, and the measurements agree with the primal-dual steps' to the solve's accuracy."""
+    from breastcore.fem.sliding_dual import SlidingDual
+    mesh, params = mesh_level("medium"), Parameters()
+    plain = ForwardModel(mesh, SolverOptions(sliding_release=False)).solve(params, paper_postures()[posture])
+    released = []
+    release = SlidingDual.release
+    monkeypatch.setattr(SlidingDual, "release", lambda self, x, g: released.append(
+        int(np.count_nonzero(release(self, x, g).any(axis=1)))) or release(self, x, g))
+    model = ForwardModel(mesh, SolverOptions(sliding_release=True))
+    solution = model.solve(params, paper_postures()[posture])
+    assert max(released) > 0                                         # nodes were released on the way
+    assert solution.gradient_norm <= solution.tolerance and solution.negative_eigenvalues == 0
+    problem = model.problem(params, paper_postures()[posture])
+    z = problem.free(solution.position)
+    g = problem.gradient(z)
+    np.testing.assert_array_equal(problem.step_gradient(z, g), g)   # none at the equilibrium
+    m_plain = np.array(list(measure(mesh, plain.position, "paper15").values()))
+    m_released = np.array(list(measure(mesh, solution.position, "paper15").values()))
+    assert np.max(np.abs(m_released / m_plain - 1.0)) < 1e-7
+
+
+@pytest.mark.parametrize("name", ["sliding_dual", "sliding_release", "inertia_shift"])
 def test_step_options_must_be_booleans(name):
     with pytest.raises(ValueError, match=name):
         SolverOptions(**{name: "yes"})
