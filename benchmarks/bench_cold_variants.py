@@ -15,7 +15,8 @@ cold in each paper posture, on the gmsh mesh of ``--level``
 - ``before-21``: the settings before issue #21 (the gravity ramp at δ = 1e-4 m, then a δ
   continuation; a fresh factorisation every Newton iteration): the reference, always run;
 - ``default``: the shipped ``SolverOptions`` (today: ``no-delta-phase+chord0.5`` with
-  ``dual+shift+mixed``'s three step options);
+  ``dual+shift+mixed``'s three step options, inexact directions, futile shifts skipped and
+  released sliding steps);
 - the others are ``before-21`` with one change:
 - ``smoothing1e-3`` / ``smoothing1e-2``: the gravity ramp at δ = 1e-3 m / 1e-2 m
   (``smoothing_start``) instead of 1e-4 m;

@@ -16,8 +16,9 @@ other, so that a drift of the machine falls on all of them. A variant sets
 identification's forward solves only (the truth is the workflow's):
 
 Every variant spells out all eleven settings (``smoothing_start``, ``reuse_factor``, ``sliding_dual``,
-``sliding_release``, ``inertia_shift``, ``mixed_precision_min_dofs``, ``step_rtol``, ``skip_futile_shifts``, the smoothing δ,
-``reduced_snapshots``, ``tangent_starts``), so that its meaning does not move with the shipped defaults:
+``sliding_release``, ``inertia_shift``, ``mixed_precision_min_dofs``, ``step_rtol``,
+``skip_futile_shifts``, the smoothing δ, ``reduced_snapshots``, ``tangent_starts``), so that its
+meaning does not move with the shipped defaults:
 
 - ``default``: today's path (no δ phase, chord steps 0.5, tangent-predictor starts after each
   Jacobian, reduced starts over 8 snapshots before the first, primal-dual sliding blocks,

@@ -48,7 +48,8 @@ class SlidingDual:
     .. math:: B = \frac{w}{r}\Big(I - \frac{q u^\top + u q^\top}{2r}\Big)
 
     (symmetrised; positive definite for :math:`|q| \le 1`, since
-    :math:`|u| < r`) and the primal gradient as right-hand side. After a step to slips
+    :math:`|u| < r`; a node released by :meth:`release` has the semi-definite block
+    :math:`(w/r)(I - e e^\top)` instead) and the primal gradient as right-hand side. After a step to slips
     :math:`u' = u + \Delta u`, the linearised dual update is
 
     .. math:: q' = \Big(u' - q\,\frac{u\cdot\Delta u}{r}\Big)\Big/ r,
@@ -64,7 +65,7 @@ class SlidingDual:
         self._slips = None       # the slips u (n, 3) at which q was last updated
         self._root = None
         self.q = None
-        self._released = None    # (slips, released mask, slip directions) of the last release()
+        self._released = None    # (node positions, released mask, slip directions) of the last release()
 
     def release(self, x, gradient):
         """Mark the sticking back nodes that the rest of the energy pulls harder than the sliding
@@ -107,15 +108,19 @@ class SlidingDual:
             (np.linalg.norm(u, axis=1) <= RELEASE_MAX_SLIP * self.term.smoothing)
         direction = np.zeros_like(u)
         direction[released] = demand[released] / size[released, None]
-        self._released = (u, released, direction)
+        self._released = (np.array(x, dtype=float), released, direction)
         correction = np.zeros_like(x)
         correction[nodes[released]] = weight[released, None] * (direction[released] - u[released] /
                                                                  root[released, None])
         return correction
 
-    def _released_at(self, u):
-        """The released mask and directions of the last :meth:`release` if it was at slips ``u``, else None."""
-        if self._released is None or not np.array_equal(self._released[0], u):
+    def clear_release(self):
+        """Forget the last :meth:`release`: the blocks are the primal-dual ones everywhere."""
+        self._released = None
+
+    def _released_at(self, x):
+        """The released mask and directions of the last :meth:`release` if it was at positions ``x``, else None."""
+        if self._released is None or not np.array_equal(self._released[0], x):
             return None
         return self._released[1:]
 
@@ -139,12 +144,13 @@ class SlidingDual:
         self.update(x)
         u, q, r = self._slips, self.q, self._root
         sym = 0.5 * (np.einsum("ni,nj->nij", q, u) + np.einsum("ni,nj->nij", u, q)) / r[:, None, None]
-        released = self._released_at(u)
+        released = self._released_at(x)
         if released is not None and released[0].any():    # released: no stiffness along d (release())
             mask, e = released
             sym[mask] = np.einsum("ni,nj->nij", e[mask], e[mask])
         return (self.term.weight / r)[:, None, None] * (np.eye(3)[None] - sym)
 
     def projected_element_hessians(self, x):
-        """:meth:`element_hessians`: these blocks are positive definite already."""
+        """:meth:`element_hessians`: these blocks are positive definite already (semi-definite at
+        released nodes)."""
         return self.element_hessians(x)

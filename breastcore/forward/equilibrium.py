@@ -26,7 +26,7 @@ class EquilibriumProblem:
         #: The Chassaignac dual state of the Newton steps (None: steps with the exact Hessian).
         self.sliding_dual = SlidingDual(sliding) if sliding_dual else None
         #: Whether Newton's steps release sticking back nodes (:meth:`step_gradient`; needs ``sliding_dual``).
-        self.sliding_release = bool(sliding_release) and sliding_dual
+        self.sliding_release = bool(sliding_release and sliding_dual)
         load = float(np.linalg.norm(self.gravity.load))
         self.energy_scale = max(load, 1e-30) * params.R
         self.length_scale = params.R
@@ -53,23 +53,32 @@ class EquilibriumProblem:
         moves to ``z``). It equals :meth:`hessian` at an equilibrium reached by such steps only
         to the solve's tolerance: Jacobians and the inertia checks of the returned state use
         :meth:`hessian`; Newton's own ``negative_pivots`` are this matrix's (the sliding blocks
-        are positive definite in both, so the two differ only near a zero eigenvalue)."""
+        are positive definite in both, so the two differ only near a zero eigenvalue, except after
+        :meth:`step_gradient` released nodes: their blocks are singular along the slip, and a
+        reported negative pivot may be the step matrix's alone; the inertia of the returned state is
+        the exact Hessian's)."""
         if self.sliding_dual is None:
             return self.hessian(z, project)
         terms = tuple(self.sliding_dual if term is self.sliding_dual.term else term
                       for term in self.energy.nonlinear_terms)
         return self.assembler.assemble_terms(terms, self.full(z), project)
 
-    def step_gradient(self, z, g):
-        """The right-hand side of Newton's step at ``z``, where the gradient is ``g`` (free dofs, N):
-        ``g`` itself, or with ``sliding_release`` the forces of the back nodes that
-        :meth:`SlidingDual.release <breastcore.fem.sliding_dual.SlidingDual.release>` releases
-        saturated (it also sets their blocks in :meth:`step_hessian` at ``z``)."""
+    def step_gradient(self, z, g, release=True):
+        """The right-hand side of Newton's step at ``z``, where the gradient is ``g`` (free dofs, N).
+
+        With ``sliding_release`` (and ``release``), the forces of the back nodes that
+        :meth:`SlidingDual.release <breastcore.fem.sliding_dual.SlidingDual.release>` releases are
+        saturated, and their blocks in :meth:`step_hessian` at ``z`` change with them. Where no node
+        is released, or with ``release=False`` (which clears an earlier release), it is ``g`` itself
+        (the same object)."""
         if not self.sliding_release:
+            return g
+        if not release:
+            self.sliding_dual.clear_release()
             return g
         x = self.full(z)
         correction = self.sliding_dual.release(x, self.assembler.expand(g, np.zeros_like(x)))
-        return g + self.free(correction)
+        return g + self.free(correction) if correction.any() else g
 
     @property
     def pattern(self):

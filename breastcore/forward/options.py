@@ -55,11 +55,10 @@ class SolverOptions:
     sliding_release : bool
         With ``sliding_dual``: a Newton step treats the sticking back nodes that the body pulls
         past 1.05 × the sliding threshold as slipping (a semismooth step of the unsmoothed law,
-        ``SlidingDual.release``), so that the slip zone does not
-        widen by one ring of nodes per iteration. Default True (0.85× the factorisations of the
-        cold solves at Λ̄ on ultra-thin, reference and fine10k; docs/benchmarks.md, "Released
-        sliding steps"); False: the primal-dual steps alone, the method before. Without
-        ``sliding_dual`` it has no effect.
+        ``SlidingDual.release``), so that the slip zone does not widen by one ring of nodes per
+        iteration. Default True (docs/benchmarks.md, "Released sliding steps"); False: the
+        primal-dual steps alone, the method before. Newton only: no effect with ``method="cg"``
+        or without ``sliding_dual``.
     inertia_shift : bool
         Newton's indefinite steps (:func:`~breastcore.nonlinear.newton.newton`'s
         ``inertia_shift``): a diagonal shift just large enough for a positive-definite
@@ -72,8 +71,9 @@ class SolverOptions:
         factorisation and solve on the paper's levels (611-8386 dofs, one thread). Default
         0: every level. 100000, the threshold before, keeps the paper's levels in double.
     step_rtol : float
-        Newton's directions are solved to ``‖K d + g‖ ≤ step_rtol ‖g‖`` (the forcing term of an
-        inexact Newton method): a single-precision factor is refined only as far as that, and on
+        Newton's directions are solved to ``‖K d + b‖ ≤ step_rtol ‖b‖`` (the forcing term of an
+        inexact Newton method; ``b`` the step's right-hand side, the gradient but at released
+        sliding nodes): a single-precision factor is refined only as far as that, and on
         the paper's levels its first solve mostly meets 1e-3 already (median 1.5e-6, largest
         1.6e-3 in a cold ultra-thin solve). An exact or chord step that ends a solve is retaken
         along the direction refined to 1e-10, so that equilibria, and central differences of

@@ -181,7 +181,8 @@ def newton(problem, z0, tolerance, max_iterations=50, avoid_saddles=False, reuse
         shifts of :data:`INERTIA_SHIFTS` (module notes), then the PSD projection. False
         (default): the projection directly (the method before). Needs PARDISO's inertia.
     step_rtol : float
-        Directions are solved to ``‖K d + g‖ ≤ step_rtol ‖g‖`` (inexact Newton); an exact or chord
+        Directions are solved to ``‖K d + b‖ ≤ step_rtol ‖b‖`` (inexact Newton; ``b`` the right-hand
+        side, ``g`` but for released sliding nodes, module notes); an exact or chord
         step that ends the solve is retaken refined (:func:`_refined_if_last`). Default: refined.
     skip_futile_shifts : bool
         With ``inertia_shift``: go to the projection directly where the shifts cannot help
@@ -253,7 +254,8 @@ class _Steps:
         self.inertia = None if factor is None else factor.negative_pivots
         self.projected += accepted is not None and mode != "exact"
         exact = accepted is not None and mode == "exact"
-        self.kept = factor if exact and self.reuse > 0 else None
+        # a released step's factor is kept only without released nodes: chord steps solve for g
+        self.kept = factor if exact and self.reuse > 0 and rhs is g else None
         return accepted, mode, (factor, rhs) if exact else None
 
 
@@ -298,17 +300,18 @@ class _Shifts:
 
 
 def _fresh_step(problem, z, energy, g, g_norm, pattern, avoid_saddles, shifts=None, step_rtol=REFINEMENT_RTOL):
-    """A line-search step along ``−K⁻¹ g`` with ``K`` the exact Hessian, else (``inertia_shift``) the
-    smallest of :data:`INERTIA_SHIFTS` that makes it positive definite, else its PSD projection,
-    else that shifted.
+    """A line-search step along ``−K⁻¹ g`` with ``K`` the exact Hessian (the step matrix and right-hand
+    side of released sliding nodes where there are any), else (``inertia_shift``) the smallest of
+    :data:`INERTIA_SHIFTS` that makes the plain step matrix positive definite, else its PSD
+    projection, else that shifted: the modified steps solve for ``g`` itself, so that they descend.
 
     ``shifts``: a :class:`_Shifts` (None: no shifts). Returns ``(accepted, mode, exact_factor,
     factorisations, rhs)``: ``accepted`` as
     :func:`~breastcore.nonlinear.line_search._line_search` (None if no mode gave a descent
     step), the mode that gave it, the exact Hessian's factor (its inertia; None if it
-    failed), and the right-hand side the directions solved for: ``problem.step_gradient(z, g)``
-    where the problem has one (released sliding nodes), else ``g``. The descent test and the line
-    search use ``g``.
+    failed), and the right-hand side the exact direction solved for: ``problem.step_gradient(z, g)``
+    where the problem has one (released sliding nodes; ``g`` itself where none is), else ``g``. The
+    descent test and the line search use ``g``.
     """
     hessian = getattr(problem, "step_hessian", problem.hessian)
     rhs = problem.step_gradient(z, g) if hasattr(problem, "step_gradient") else g
@@ -323,6 +326,9 @@ def _fresh_step(problem, z, energy, g, g_norm, pattern, avoid_saddles, shifts=No
         accepted = _line_search(problem, z, d, energy, g, g_norm)
         if accepted is not None:
             return accepted, "exact", exact, tried, rhs
+    if rhs is not g:            # the released step failed: the modified steps are the plain ones, for g
+        rhs = problem.step_gradient(z, g, release=False)
+        K = hessian(z, project=False)
     if inertia_shift and factor is not None and factor.negative_pivots is not None and \
             shifts.wanted(factor.negative_pivots):
         scale = np.abs(K.diagonal())

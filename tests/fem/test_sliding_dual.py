@@ -125,6 +125,9 @@ def test_released_blocks_are_free_along_the_demand_and_the_others_unchanged():
     np.testing.assert_array_equal(blocks[~released], before[~released])
     np.testing.assert_array_equal(dual.element_hessians(slid(nodes, 2e-7, seed=10)),   # elsewhere: not released
                                   plain.element_hessians(slid(nodes, 2e-7, seed=10)))
+    dual.release(x, gradient)
+    dual.clear_release()
+    np.testing.assert_array_equal(dual.element_hessians(x), plain.element_hessians(x))   # cleared: none released
 
 
 def test_no_release_beyond_the_slip_limit_at_an_equilibrium_or_without_sliding_resistance():

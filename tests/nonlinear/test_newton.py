@@ -135,6 +135,26 @@ def test_sliding_dual_and_inertia_shift_give_the_same_cap_equilibrium_on_coarse(
     assert np.max(np.abs(m_dual / m_exact - 1.0)) < 1e-7
 
 
+class _MisleadingRelease(QuarticProblem):
+    """A problem whose released right-hand side points uphill (``−g``): only the fallback steps,
+    which must solve for ``g`` with the release cleared, can descend."""
+
+    def __init__(self):
+        super().__init__(40)
+        self.calls = []
+
+    def step_gradient(self, z, g, release=True):
+        self.calls.append(release)
+        return -g if release else g
+
+
+def test_a_failed_released_step_falls_back_to_steps_for_the_gradient():
+    problem = _MisleadingRelease()
+    result = newton(problem, np.zeros(40), 1e-10, 60)
+    assert result.success and result.projected_steps == result.iterations   # every step a fallback one
+    assert False in problem.calls and True in problem.calls
+
+
 @pytest.mark.parametrize("posture", [0, 2], ids=["standing", "fours"])
 def test_released_sliding_steps_give_the_same_equilibrium_on_medium(monkeypatch, posture):
     """``sliding_release`` changes the steps only: it does release nodes on the way, none at the
