@@ -17,6 +17,8 @@ cold in each paper posture, on the gmsh mesh of ``--level``
 - ``default``: the shipped ``SolverOptions`` (today: ``no-delta-phase+chord0.5`` with
   ``dual+shift+mixed``'s three step options, inexact directions, futile shifts skipped and
   released sliding steps);
+- ``no-release``: ``default`` without the released sliding steps (``sliding_release = False``),
+  the default from 0ec3832 to 8605383;
 - the others are ``before-21`` with one change:
 - ``smoothing1e-3`` / ``smoothing1e-2``: the gravity ramp at δ = 1e-3 m / 1e-2 m
   (``smoothing_start``) instead of 1e-4 m;
@@ -68,6 +70,7 @@ BEFORE = {"smoothing_start": 1e-4, "reuse_factor": 0.0, "sliding_dual": False, "
 VARIANTS = {
     "before-21": (BEFORE, newton),
     "default": ({}, newton),
+    "no-release": ({"sliding_release": False}, newton),
     "smoothing1e-3": ({**BEFORE, "smoothing_start": 1e-3}, newton),
     "smoothing1e-2": ({**BEFORE, "smoothing_start": 1e-2}, newton),
     "projected": (BEFORE, functools.partial(newton, avoid_saddles=True)),
