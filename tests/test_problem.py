@@ -114,26 +114,19 @@ def test_a_spec_written_before_the_inexact_steps_reads_with_refined_steps_and_ev
     assert spec.solver.step_rtol == 1e-4 and spec.solver.skip_futile_shifts
 
 
-def test_a_spec_written_before_the_released_sliding_steps_reads_without_them():
-    """Datasets written before ``sliding_release`` stepped with the primal-dual sliding blocks alone."""
+@pytest.mark.parametrize("section, field", [
+    ("identification", "tangent_starts"),      # far solves started without the predictor
+    ("solver", "sliding_release"),             # the primal-dual sliding blocks alone
+])
+def test_a_spec_written_before_a_boolean_option_reads_without_it(section, field):
+    """Datasets written before ``tangent_starts`` or ``sliding_release`` were computed without them."""
     spec = non_default_spec()
-    spec = dataclasses.replace(spec, solver=dataclasses.replace(spec.solver, sliding_release=True))
+    spec = dataclasses.replace(spec, **{section: dataclasses.replace(getattr(spec, section), **{field: True})})
     data = spec.as_dict()
-    del data["solver"]["sliding_release"]
+    del data[section][field]
     read = ProblemSpec.from_dict(data)
-    assert read == dataclasses.replace(spec, solver=dataclasses.replace(spec.solver, sliding_release=False))
-    assert spec.solver.sliding_release
-
-
-def test_a_spec_written_before_the_tangent_starts_reads_without_them():
-    """Identifications written before ``tangent_starts`` started far solves without the predictor."""
-    spec = non_default_spec()
-    spec = dataclasses.replace(spec, identification=dataclasses.replace(spec.identification, tangent_starts=True))
-    data = spec.as_dict()
-    del data["identification"]["tangent_starts"]
-    read = ProblemSpec.from_dict(data)
-    assert read == dataclasses.replace(spec, identification=dataclasses.replace(
-        spec.identification, tangent_starts=False))
+    assert read == dataclasses.replace(spec, **{section: dataclasses.replace(getattr(spec, section), **{field: False})})
+    assert getattr(getattr(spec, section), field)
 
 
 @pytest.mark.parametrize("field, other", [("warm_radius", 0.05), ("reduced_snapshots", 8), ("tangent_starts", True)])
