@@ -21,9 +21,10 @@ import numpy as np
 
 
 #: :meth:`SlidingDual.release`: a sticking node is released where its demand exceeds this (the
-#: threshold is 1). 1.05 and :data:`RELEASE_MAX_SLIP` = 10 took the fewest factorisations of six
-#: pairs (1-1.05, 3-100) over the cold solves at Λ̄ on ultra-thin, reference and fine10k
-#: (docs/benchmarks.md, "Released sliding steps").
+#: threshold is 1). With :data:`RELEASE_MAX_SLIP` = 10: the fewest factorisations of six pairs
+#: (1-1.05, 3-100) over the cold solves at Λ̄ on ultra-thin, reference and fine10k, and the least
+#: time of seven pairs (1.05-2, 3-10) on medium to reference (docs/benchmarks.md, "Released
+#: sliding steps").
 RELEASE_DEMAND = 1.05
 #: :meth:`SlidingDual.release`: only nodes that slip at most this many δ are released (further out
 #: the primal-dual block has lost its stiffness along the slip already).
