@@ -327,10 +327,10 @@ def _fresh_step(problem, z, energy, g, g_norm, pattern, avoid_saddles, shifts=No
         if accepted is not None:
             return accepted, "exact", exact, tried, rhs
     if rhs is not g:            # the released step failed: the modified steps are the plain ones, for g
-        rhs = problem.step_gradient(z, g, release=False)
-        K = hessian(z, project=False)
+        rhs, K = problem.step_gradient(z, g, release=False), None    # K: assembled again only for the shifts
     if inertia_shift and factor is not None and factor.negative_pivots is not None and \
             shifts.wanted(factor.negative_pivots):
+        K = hessian(z, project=False) if K is None else K
         scale = np.abs(K.diagonal())
         for sigma in INERTIA_SHIFTS:
             tried += 1
