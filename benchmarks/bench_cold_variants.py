@@ -15,9 +15,12 @@ cold in each paper posture, on the gmsh mesh of ``--level``
 - ``before-21``: the settings before issue #21 (the gravity ramp at δ = 1e-4 m, then a δ
   continuation; a fresh factorisation every Newton iteration): the reference, always run;
 - ``default``: the shipped ``SolverOptions`` (today: ``no-delta-phase+chord0.5`` with
-  ``dual+shift+mixed``'s three step options, inexact directions, futile shifts skipped and
-  released sliding steps);
-- ``no-release``: ``default`` without the released sliding steps (``sliding_release = False``),
+  ``dual+shift+mixed``'s three step options, inexact directions, futile shifts skipped,
+  released sliding steps and no exact factorisation in the three steps after one with more than
+  14 negative pivots);
+- ``no-deep-skips``: ``default`` with an exact factorisation at every fresh Newton step
+  (``deep_indefinite_skips = 0``), the default from 60e6632 to 4972fbe;
+- ``no-release``: ``no-deep-skips`` without the released sliding steps (``sliding_release = False``),
   the default from 0ec3832 to 8605383;
 - the others are ``before-21`` with one change:
 - ``smoothing1e-3`` / ``smoothing1e-2``: the gravity ramp at δ = 1e-3 m / 1e-2 m
@@ -66,11 +69,12 @@ from breastcore.nonlinear.newton import newton  # noqa: E402
 
 #: The solver settings before issue #21: the reference every variant is timed against.
 BEFORE = {"smoothing_start": 1e-4, "reuse_factor": 0.0, "sliding_dual": False, "sliding_release": False,
-          "inertia_shift": False, "mixed_precision_min_dofs": 100_000}
+          "inertia_shift": False, "mixed_precision_min_dofs": 100_000, "deep_indefinite_skips": 0}
 VARIANTS = {
     "before-21": (BEFORE, newton),
     "default": ({}, newton),
-    "no-release": ({"sliding_release": False}, newton),
+    "no-deep-skips": ({"deep_indefinite_skips": 0}, newton),
+    "no-release": ({"sliding_release": False, "deep_indefinite_skips": 0}, newton),
     "smoothing1e-3": ({**BEFORE, "smoothing_start": 1e-3}, newton),
     "smoothing1e-2": ({**BEFORE, "smoothing_start": 1e-2}, newton),
     "projected": (BEFORE, functools.partial(newton, avoid_saddles=True)),

@@ -15,16 +15,20 @@ other, so that a drift of the machine falls on all of them. A variant sets
 :class:`~breastcore.forward.options.SolverOptions` keys in the job's solver spec, for the
 identification's forward solves only (the truth is the workflow's):
 
-Every variant spells out all eleven settings (``smoothing_start``, ``reuse_factor``, ``sliding_dual``,
+Every variant spells out all twelve settings (``smoothing_start``, ``reuse_factor``, ``sliding_dual``,
 ``sliding_release``, ``inertia_shift``, ``mixed_precision_min_dofs``, ``step_rtol``,
-``skip_futile_shifts``, the smoothing δ, ``reduced_snapshots``, ``tangent_starts``), so that its
+``skip_futile_shifts``, ``deep_indefinite_skips``, the smoothing δ, ``reduced_snapshots``,
+``tangent_starts``), so that its
 meaning does not move with the shipped defaults:
 
 - ``default``: today's path (no δ phase, chord steps 0.5, tangent-predictor starts after each
   Jacobian, reduced starts over 8 snapshots before the first, primal-dual sliding blocks,
   inertia shifts where they can help, single-precision factors, inexact Newton directions,
-  released sliding steps);
-- ``no-release``: ``default`` without the released sliding steps (``sliding_release = False``),
+  released sliding steps, no exact factorisation in the three steps after one with more than 14
+  negative pivots);
+- ``no-deep-skips``: ``default`` with an exact factorisation at every fresh Newton step
+  (``deep_indefinite_skips = 0``), the default path from 60e6632 to 4972fbe;
+- ``no-release``: ``no-deep-skips`` without the released sliding steps (``sliding_release = False``),
   the default path from 0ec3832 to 8605383;
 - ``no-tangent``: ``no-release`` without the tangent-predictor starts (``tangent_starts = False``),
   the default path from fd093bc to 0ec3832;
@@ -83,11 +87,15 @@ from breastcore.stages.identify import run_identify  # noqa: E402
 
 #: The solver settings before issue #21, and today's.
 BEFORE = {"smoothing_start": 1e-4, "reuse_factor": 0.0, "sliding_dual": False, "sliding_release": False,
-          "inertia_shift": False, "mixed_precision_min_dofs": 100_000, "step_rtol": 1e-10, "skip_futile_shifts": False}
+          "inertia_shift": False, "mixed_precision_min_dofs": 100_000, "step_rtol": 1e-10, "skip_futile_shifts": False,
+          "deep_indefinite_skips": 0}
 NEW = {"smoothing_start": 1e-6, "reuse_factor": 0.5, "sliding_dual": True, "sliding_release": True,
-       "inertia_shift": True, "mixed_precision_min_dofs": 0, "step_rtol": 1e-3, "skip_futile_shifts": True}
+       "inertia_shift": True, "mixed_precision_min_dofs": 0, "step_rtol": 1e-3, "skip_futile_shifts": True,
+       "deep_indefinite_skips": 3}
+#: The default path from 60e6632 to 4972fbe: an exact factorisation at every fresh Newton step.
+UNSKIPPED = {**NEW, "deep_indefinite_skips": 0}
 #: The default path from 0ec3832 to 8605383: the primal-dual sliding steps without released nodes.
-UNRELEASED = {**NEW, "sliding_release": False}
+UNRELEASED = {**UNSKIPPED, "sliding_release": False}
 #: The default path of 2026-12-03 (6827140 to 7915c56): every direction refined, every shift tried.
 REFINED = {**UNRELEASED, "step_rtol": 1e-10, "skip_futile_shifts": False}
 #: The default path of 2026-12-02: exact-Hessian steps, the PSD projection, double precision.
@@ -98,6 +106,7 @@ REDUCED8 = {"reduced_snapshots": 8, "tangent_starts": False}
 #: Variant name → (SolverOptions keys, model constants, IdentificationOptions keys) of the identification.
 VARIANTS = {
     "default": (NEW, {}, {"reduced_snapshots": 8, "tangent_starts": True}),
+    "no-deep-skips": (UNSKIPPED, {}, {"reduced_snapshots": 8, "tangent_starts": True}),
     "no-release": (UNRELEASED, {}, {"reduced_snapshots": 8, "tangent_starts": True}),
     "no-tangent": (UNRELEASED, {}, REDUCED8),
     "before-21": (BEFORE, {}, COLD),

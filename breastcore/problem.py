@@ -157,10 +157,12 @@ class ProblemSpec:
 #: ``step_rtol`` 1e-10, ``skip_futile_shifts`` False: every Newton direction refined to 1e-10, and the
 #: inertia shifts tried at every indefinite step.
 #: ``sliding_release`` False: the primal-dual sliding steps without released nodes.
+#: ``deep_indefinite_skips`` 0: an exact factorisation at every fresh Newton step.
 #: ``tangent_starts`` False: solves after a Jacobian started from the plain warm or the reduced start.
 ADDED_FIELDS = {"SolverOptions": {"reuse_factor": 0.0, "sliding_dual": False, "inertia_shift": False,
                                   "mixed_precision_min_dofs": 100_000, "step_rtol": 1e-10,
-                                  "skip_futile_shifts": False, "sliding_release": False},
+                                  "skip_futile_shifts": False, "sliding_release": False,
+                                  "deep_indefinite_skips": 0},
                 "IdentificationOptions": {"tangent_starts": False}}
 
 

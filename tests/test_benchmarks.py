@@ -40,7 +40,7 @@ def test_make_bench_runs_every_script_in_its_quick_mode():
     assert {s.stem for s in SCRIPTS} == {"bench_cold_factorisations", "bench_cold_variants", "bench_delta_newton",
                                          "bench_factorization", "bench_forward", "bench_identify",
                                          "bench_inertia", "bench_iterative_solver", "bench_kernels",
-                                         "bench_problem_builds", "bench_projection", "bench_sliding_release",
+                                         "bench_problem_builds", "bench_projection", "bench_solver_option",
                                          "bench_table1_variants",
                                          "bench_warm_distance", "bench_warm_radius"}
     run = MAKEFILE.split("BENCH_RUN =")[1].split("\n\n")[0]

@@ -32,7 +32,7 @@ CONSTANTS = dict(skin_thickness=1.2e-3, density=1010.0, gravity_magnitude=9.8, c
 SOLVER = dict(method="newton", rtol=1e-7, stage_rtol=2e-5, smoothing_start=2e-4, max_iterations=90,
               min_step=1 / 128, cg_max_iterations=15000, max_extensions=3, max_final_attempts=2,
               reuse_factor=0.25, sliding_dual=False, sliding_release=False, inertia_shift=False,
-              mixed_precision_min_dofs=5000, step_rtol=1e-4, skip_futile_shifts=False)
+              mixed_precision_min_dofs=5000, step_rtol=1e-4, skip_futile_shifts=False, deep_indefinite_skips=2)
 IDENTIFICATION = dict(method="lm", jacobian="implicit", fd_step=2e-4, cost_tol=1e-13, cost_rtol=0.01, xtol=1e-7,
                       ftol=1e-7, gtol=1e-9, max_iterations=3, noise=0.05, initial_trust_radius=0.4,
                       fixed_iterations=False, warm_radius=0.07, reduced_snapshots=3, tangent_starts=False)
@@ -114,19 +114,21 @@ def test_a_spec_written_before_the_inexact_steps_reads_with_refined_steps_and_ev
     assert spec.solver.step_rtol == 1e-4 and spec.solver.skip_futile_shifts
 
 
-@pytest.mark.parametrize("section, field", [
-    ("identification", "tangent_starts"),      # far solves started without the predictor
-    ("solver", "sliding_release"),             # the primal-dual sliding blocks alone
+@pytest.mark.parametrize("section, field, now, then", [
+    ("identification", "tangent_starts", True, False),      # far solves started without the predictor
+    ("solver", "sliding_release", True, False),             # the primal-dual sliding blocks alone
+    ("solver", "deep_indefinite_skips", 3, 0),              # an exact factorisation at every fresh step
 ])
-def test_a_spec_written_before_a_boolean_option_reads_without_it(section, field):
-    """Datasets written before ``tangent_starts`` or ``sliding_release`` were computed without them."""
+def test_a_spec_written_before_an_option_reads_with_the_method_of_then(section, field, now, then):
+    """Datasets written before ``tangent_starts``, ``sliding_release`` or ``deep_indefinite_skips`` were
+    computed without them."""
     spec = non_default_spec()
-    spec = dataclasses.replace(spec, **{section: dataclasses.replace(getattr(spec, section), **{field: True})})
+    spec = dataclasses.replace(spec, **{section: dataclasses.replace(getattr(spec, section), **{field: now})})
     data = spec.as_dict()
     del data[section][field]
     read = ProblemSpec.from_dict(data)
-    assert read == dataclasses.replace(spec, **{section: dataclasses.replace(getattr(spec, section), **{field: False})})
-    assert getattr(getattr(spec, section), field)
+    assert read == dataclasses.replace(spec, **{section: dataclasses.replace(getattr(spec, section), **{field: then})})
+    assert getattr(getattr(spec, section), field) == now
 
 
 @pytest.mark.parametrize("field, other", [("warm_radius", 0.05), ("reduced_snapshots", 8), ("tangent_starts", True)])

@@ -39,7 +39,8 @@ def _cg_minimiser(model):
 def _newton(model, problem, z, tolerance):
     opts = model.options
     return newton(problem, z, tolerance, opts.max_iterations, reuse=opts.reuse_factor, inertia_shift=opts.inertia_shift,
-                  step_rtol=opts.step_rtol, skip_futile_shifts=opts.skip_futile_shifts)
+                  step_rtol=opts.step_rtol, skip_futile_shifts=opts.skip_futile_shifts,
+                  deep_skips=opts.deep_indefinite_skips)
 
 
 def _minimise(model, problem, z, tolerance):

@@ -83,8 +83,16 @@ class SolverOptions:
         With ``inertia_shift``: an indefinite step goes to the PSD projection directly where the
         shifts cannot help: more than 7 negative pivots, or no fewer than at the last iteration
         of the same Newton solve whose shifts all failed
-        (:data:`~breastcore.nonlinear.newton.MAX_SHIFT_PIVOTS`). Default True; False tries the
+        (:data:`~breastcore.nonlinear.indefinite.MAX_SHIFT_PIVOTS`). Default True; False tries the
         shifts at every indefinite step, the method before.
+    deep_indefinite_skips : int
+        Newton's steps deep in an indefinite phase (:func:`~breastcore.nonlinear.newton.newton`'s
+        ``deep_skips``): after an exact factorisation with more than 14 negative pivots
+        (:data:`~breastcore.nonlinear.indefinite.DEEP_INDEFINITE_PIVOTS`), this many fresh steps take
+        the PSD projection directly. The exact factorisation there would only report the inertia
+        (the shifts are not tried at that depth), and the projected step is the one taken after it,
+        so the path is the same while the count stays above 7. Default 3 (docs/benchmarks.md,
+        "Deep indefinite phases"); 0: an exact factorisation at every fresh step, the method before.
     max_final_attempts : int
         The final δ step (full gravity, target δ, full tolerance) may fail this many
         times, each from a different converged neighbour, before the solve raises.
@@ -114,6 +122,7 @@ class SolverOptions:
     mixed_precision_min_dofs: int = 0
     step_rtol: float = 1e-3
     skip_futile_shifts: bool = True
+    deep_indefinite_skips: int = 3
 
     def __post_init__(self):
         if self.method not in ("newton", "cg"):
@@ -136,5 +145,10 @@ class SolverOptions:
             raise ValueError(f"solver option mixed_precision_min_dofs must be an integer ≥ 0, "
                              f"got {self.mixed_precision_min_dofs!r}")
         object.__setattr__(self, "mixed_precision_min_dofs", int(self.mixed_precision_min_dofs))
+        if isinstance(self.deep_indefinite_skips, bool) or not (
+                isinstance(self.deep_indefinite_skips, (int, np.integer)) and self.deep_indefinite_skips >= 0):
+            raise ValueError(f"solver option deep_indefinite_skips must be an integer ≥ 0, "
+                             f"got {self.deep_indefinite_skips!r}")
+        object.__setattr__(self, "deep_indefinite_skips", int(self.deep_indefinite_skips))
         if int(self.max_final_attempts) < 1:
             raise ValueError("solver option max_final_attempts must be ≥ 1")

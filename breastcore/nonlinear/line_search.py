@@ -1,4 +1,4 @@
-"""The backtracking line search of Newton's method, and BLAS-free vector helpers."""
+"""The backtracking line search of Newton's method, its descent test, and BLAS-free vector helpers."""
 
 from __future__ import annotations
 
@@ -45,3 +45,8 @@ def _line_search(problem, z, d, energy, g, g_norm, min_step=2.0**-30, expand=Fal
                     return step, z_new, e_new
         step *= 0.5
     return None
+
+
+def descends(g, g_norm, d):
+    """Whether ``d`` is a descent direction for the gradient ``g`` (beyond round-off)."""
+    return not _dot(g, d) >= -1e-12 * g_norm * _norm(d)

@@ -23,10 +23,14 @@ here; the forward solves use ``SolverOptions.reuse_factor`` (0.5), measured on t
 The step matrix is ``problem.step_hessian(z, project)`` where the problem has one (e.g. with
 the primal-dual sliding blocks of :class:`~breastcore.fem.sliding_dual.SlidingDual`), else
 ``problem.hessian``. With ``inertia_shift``, an indefinite step matrix ``K`` is first replaced
-by ``K + σ |diag K|`` for σ in :data:`INERTIA_SHIFTS`, the first whose factor has no negative
+by ``K + σ |diag K|`` for σ in :data:`~breastcore.nonlinear.indefinite.INERTIA_SHIFTS`, the first whose factor has no negative
 pivot: the PSD projection stiffens every skin and bulk block, so its steps along a soft mode
 are far too short (the line search then doubles them up to 2¹⁰), while a shift just large
 enough for positive definiteness keeps the rest of the curvature.
+
+With ``deep_skips``, the fresh steps after an exact factorisation with more than
+:data:`~breastcore.nonlinear.indefinite.DEEP_INDEFINITE_PIVOTS` negative pivots take the PSD projection directly: there the exact
+factorisation would only report the inertia (the shifts are skipped at that depth already).
 
 The directions solve for ``problem.step_gradient(z, g)`` where the problem has one (sliding nodes
 released by :meth:`~breastcore.fem.sliding_dual.SlidingDual.release`), else for the gradient ``g``;
@@ -41,7 +45,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from breastcore.linalg.factorization import REFINEMENT_RTOL, factor_solve, shift_diagonal
-from breastcore.nonlinear.line_search import _dot, _line_search, _norm
+from breastcore.nonlinear.indefinite import DEEP_INDEFINITE_PIVOTS, INERTIA_SHIFTS, Shifts, projected_step
+from breastcore.nonlinear.line_search import _line_search, _norm, descends
 
 log = logging.getLogger(__name__)
 
@@ -68,7 +73,7 @@ class NewtonResult:
         Iterations that needed the PSD projection or a shift.
     factorizations : int
         Matrices factorised: one per iteration, plus one per inertia shift tried
-        (≤ :data:`INERTIA_SHIFTS`) and one each for the projection and its shift where
+        (≤ :data:`~breastcore.nonlinear.indefinite.INERTIA_SHIFTS`) and one each for the projection and its shift where
         the exact step is refused; fewer than ``iterations`` with chord steps.
     history : tuple of float
         Gradient norm before each iteration, N.
@@ -78,7 +83,8 @@ class NewtonResult:
         Negative eigenvalues of the exact Hessian (PARDISO's inertia; ``None`` if
         unknown) where it was last factorised: at ``x`` if ``inertia_at_x``, else at
         the iterate before the last step (a Newton solve factorises before it steps),
-        or, after chord steps (``reuse > 0``), at the iterate of the factor they reused.
+        or, after chord steps (``reuse > 0``), at the iterate of the factor they reused; None after
+        a step that skipped the exact factorisation (``deep_skips``).
     inertia_at_x : bool
         Whether ``negative_pivots`` is the inertia at ``x`` itself. Non-zero
         inertia at ``x`` means the equilibrium is a saddle, not a minimum.
@@ -131,24 +137,8 @@ def _stop(history, energies, scale, at_limit):
     return None
 
 
-#: Relative diagonal shifts ``σ`` tried, in order, by ``inertia_shift`` steps: ``K + σ |diag K|``.
-INERTIA_SHIFTS = (1e-2, 1e-1)
-#: ``skip_futile_shifts``: no shift is tried where the step matrix has more negative pivots than
-#: this. In the cold ultra-thin standing and bent45 solves 30 % off Λ̄, the shifts of
-#: :data:`INERTIA_SHIFTS` made the step matrix positive definite at 1-6 negative pivots and at none
-#: of 8-78 (docs/benchmarks.md, "Inexact Newton steps").
-MAX_SHIFT_PIVOTS = 7
-
-
-def _shifts_futile(negative_pivots, failed_at):
-    """Whether the inertia shifts cannot help a step matrix with ``negative_pivots``: more than
-    :data:`MAX_SHIFT_PIVOTS`, or no fewer than at the last iteration whose shifts all failed
-    (``failed_at``; None if none has)."""
-    return negative_pivots > MAX_SHIFT_PIVOTS or (failed_at is not None and negative_pivots >= failed_at)
-
-
 def newton(problem, z0, tolerance, max_iterations=50, avoid_saddles=False, reuse=0.0, inertia_shift=False,
-           step_rtol=REFINEMENT_RTOL, skip_futile_shifts=False):
+           step_rtol=REFINEMENT_RTOL, skip_futile_shifts=False, deep_skips=0):
     """Minimise ``problem`` from ``z0`` until the gradient norm is at most ``tolerance``.
 
     Parameters
@@ -178,7 +168,7 @@ def newton(problem, z0, tolerance, max_iterations=50, avoid_saddles=False, reuse
         factorisation every iteration (the method before issue #21).
     inertia_shift : bool
         Where the step matrix has negative pivots (or gives no descent), first try the
-        shifts of :data:`INERTIA_SHIFTS` (module notes), then the PSD projection. False
+        shifts of :data:`~breastcore.nonlinear.indefinite.INERTIA_SHIFTS` (module notes), then the PSD projection. False
         (default): the projection directly (the method before). Needs PARDISO's inertia.
     step_rtol : float
         Directions are solved to ``‖K d + b‖ ≤ step_rtol ‖b‖`` (inexact Newton; ``b`` the right-hand
@@ -186,7 +176,11 @@ def newton(problem, z0, tolerance, max_iterations=50, avoid_saddles=False, reuse
         step that ends the solve is retaken refined (:func:`_refined_if_last`). Default: refined.
     skip_futile_shifts : bool
         With ``inertia_shift``: go to the projection directly where the shifts cannot help
-        (:func:`_shifts_futile`). False (default): try them at every indefinite step.
+        (:func:`~breastcore.nonlinear.indefinite.shifts_futile`). False (default): try them at every indefinite step.
+    deep_skips : int
+        After an exact factorisation with more than :data:`~breastcore.nonlinear.indefinite.DEEP_INDEFINITE_PIVOTS` negative pivots,
+        this many fresh steps take the PSD projection directly, with no exact factorisation (a failed
+        one falls back to the full step). 0 (default): an exact factorisation at every fresh step.
 
     Returns
     -------
@@ -199,7 +193,7 @@ def newton(problem, z0, tolerance, max_iterations=50, avoid_saddles=False, reuse
     if not np.isfinite(energy):
         raise ValueError("Newton start is inadmissible (inverted tet or degenerate skin triangle)")
     history, energies = [], [energy]
-    steps = _Steps(problem, reuse, avoid_saddles, _Shifts(inertia_shift, skip_futile_shifts), step_rtol)
+    steps = _Steps(problem, reuse, avoid_saddles, Shifts(inertia_shift, skip_futile_shifts), step_rtol, deep_skips)
     g_next = None                                                    # the gradient at z, if known
     for it in range(max_iterations + 1):
         g = problem.gradient(z) if g_next is None else g_next
@@ -235,11 +229,12 @@ class _Steps:
     the last exact factor.
     """
 
-    def __init__(self, problem, reuse, avoid_saddles, shifts, step_rtol):
+    def __init__(self, problem, reuse, avoid_saddles, shifts, step_rtol, deep_skips=0):
         self.problem, self.reuse, self.avoid_saddles, self.shifts = problem, reuse, avoid_saddles, shifts
         self.step_rtol, self.pattern = step_rtol, getattr(problem, "pattern", None)   # reuse the symbolic analysis
         self.kept = self.inertia = None                              # kept: the last exact factor (chord steps)
         self.factorizations = self.projected = 0
+        self.deep_skips, self.skips_left = deep_skips, 0
 
     def take(self, z, energy, g, g_norm, history):
         """``(accepted, mode, used)``: the line search's outcome (None: no descent step), the step's
@@ -248,6 +243,16 @@ class _Steps:
             accepted = _chord_step(self.problem, self.kept, z, energy, g, g_norm, self.step_rtol)
             if accepted is not None:
                 return accepted, "chord", (self.kept, g)
+        if self.skips_left > 0:                  # deep in an indefinite phase: no exact factorisation
+            self.skips_left -= 1
+            if hasattr(self.problem, "step_gradient"):
+                self.problem.step_gradient(z, g, release=False)        # the plain step matrix
+            accepted, mode, tried = projected_step(self.problem, z, energy, g, g_norm, g, self.pattern,
+                                                    self.step_rtol)
+            self.factorizations += tried
+            if accepted is not None:               # the inertia here is unknown
+                self.projected, self.kept, self.inertia = self.projected + 1, None, None
+                return accepted, f"{mode} (inertia skipped)", None
         accepted, mode, factor, tried, rhs = _fresh_step(self.problem, z, energy, g, g_norm, self.pattern,
                                                          self.avoid_saddles, self.shifts, self.step_rtol)
         self.factorizations += tried
@@ -256,6 +261,8 @@ class _Steps:
         exact = accepted is not None and mode == "exact"
         # a released step's factor is kept only without released nodes: chord steps solve for g
         self.kept = factor if exact and self.reuse > 0 and rhs is g else None
+        deep = self.inertia is not None and self.inertia > DEEP_INDEFINITE_PIVOTS
+        self.skips_left = self.deep_skips if deep else 0
         return accepted, mode, (factor, rhs) if exact else None
 
 
@@ -286,26 +293,13 @@ def _refined_if_last(problem, factor, z0, rhs, step, z, energy, tolerance):
     return (refined, value, g_refined) if _norm(g_refined) <= tolerance else (z, energy, g_new)
 
 
-class _Shifts:
-    """Whether an indefinite step tries the inertia shifts, and the memory ``skip_futile_shifts`` needs."""
-
-    def __init__(self, enabled, skip_futile):
-        self.enabled, self.skip_futile, self.failed_at = bool(enabled), bool(skip_futile), None
-
-    def wanted(self, negative_pivots):
-        return self.enabled and not (self.skip_futile and _shifts_futile(negative_pivots, self.failed_at))
-
-    def failed(self, negative_pivots):
-        self.failed_at = negative_pivots
-
-
 def _fresh_step(problem, z, energy, g, g_norm, pattern, avoid_saddles, shifts=None, step_rtol=REFINEMENT_RTOL):
     """A line-search step along ``−K⁻¹ g`` with ``K`` the exact Hessian (the step matrix and right-hand
     side of released sliding nodes where there are any), else (``inertia_shift``) the smallest of
-    :data:`INERTIA_SHIFTS` that makes the plain step matrix positive definite, else its PSD
+    :data:`~breastcore.nonlinear.indefinite.INERTIA_SHIFTS` that makes the plain step matrix positive definite, else its PSD
     projection, else that shifted: the modified steps solve for ``g`` itself, so that they descend.
 
-    ``shifts``: a :class:`_Shifts` (None: no shifts). Returns ``(accepted, mode, exact_factor,
+    ``shifts``: a :class:`~breastcore.nonlinear.indefinite.Shifts` (None: no shifts). Returns ``(accepted, mode, exact_factor,
     factorisations, rhs)``: ``accepted`` as
     :func:`~breastcore.nonlinear.line_search._line_search` (None if no mode gave a descent
     step), the mode that gave it, the exact Hessian's factor (its inertia; None if it
@@ -322,7 +316,7 @@ def _fresh_step(problem, z, energy, g, g_norm, pattern, avoid_saddles, shifts=No
     factor, d = factor_solve(K, rhs, pattern, step_rtol)
     exact = factor
     indefinite = factor is not None and bool(factor.negative_pivots)
-    if d is not None and _descends(g, g_norm, d) and not (indefinite and (avoid_saddles or inertia_shift)):
+    if d is not None and descends(g, g_norm, d) and not (indefinite and (avoid_saddles or inertia_shift)):
         accepted = _line_search(problem, z, d, energy, g, g_norm)
         if accepted is not None:
             return accepted, "exact", exact, tried, rhs
@@ -335,25 +329,15 @@ def _fresh_step(problem, z, energy, g, g_norm, pattern, avoid_saddles, shifts=No
         for sigma in INERTIA_SHIFTS:
             tried += 1
             shifted, d = factor_solve(shift_diagonal(K, sigma * scale), rhs, pattern, step_rtol)
-            if shifted is None or shifted.negative_pivots or not _descends(g, g_norm, d):
+            if shifted is None or shifted.negative_pivots or not descends(g, g_norm, d):
                 continue
             accepted = _line_search(problem, z, d, energy, g, g_norm, expand=True)
             if accepted is not None:
                 return accepted, f"shift{sigma:g}", exact, tried, rhs
         if factor.negative_pivots:                                   # (a definite K whose step failed: not a verdict)
             shifts.failed(factor.negative_pivots)
-    for mode in ("project", "shift"):
-        tried += 1
-        K = hessian(z, project=True)
-        if mode == "shift":
-            K = shift_diagonal(K, 1e-6 * abs(K.diagonal()).max())
-        _, d = factor_solve(K, rhs, pattern, step_rtol)
-        if d is None or not _descends(g, g_norm, d):
-            continue
-        accepted = _line_search(problem, z, d, energy, g, g_norm, expand=True)
-        if accepted is not None:
-            return accepted, mode, exact, tried, rhs
-    return None, mode, exact, tried, rhs
+    accepted, mode, more = projected_step(problem, z, energy, g, g_norm, rhs, pattern, step_rtol)
+    return accepted, mode, exact, tried + more, rhs
 
 
 def _chord_step(problem, factor, z, energy, g, g_norm, step_rtol=REFINEMENT_RTOL):
@@ -366,11 +350,6 @@ def _chord_step(problem, factor, z, energy, g, g_norm, step_rtol=REFINEMENT_RTOL
         d = -factor.solve(g, step_rtol)
     except (RuntimeError, ValueError):
         return None
-    if not np.all(np.isfinite(d)) or not _descends(g, g_norm, d):
+    if not np.all(np.isfinite(d)) or not descends(g, g_norm, d):
         return None
     return _line_search(problem, z, d, energy, g, g_norm, min_step=1.0)
-
-
-def _descends(g, g_norm, d):
-    """Whether ``d`` is a descent direction for the gradient ``g`` (beyond round-off)."""
-    return not _dot(g, d) >= -1e-12 * g_norm * _norm(d)

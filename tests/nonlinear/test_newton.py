@@ -227,7 +227,7 @@ def test_step_rtol_must_be_at_least_the_refinement_tolerance_and_below_1():
 
 
 def test_shifts_are_futile_above_the_pivot_cap_or_where_they_failed_with_as_many_pivots():
-    from breastcore.nonlinear.newton import MAX_SHIFT_PIVOTS, _shifts_futile
+    from breastcore.nonlinear.indefinite import MAX_SHIFT_PIVOTS, shifts_futile as _shifts_futile
     assert not _shifts_futile(MAX_SHIFT_PIVOTS, None)
     assert _shifts_futile(MAX_SHIFT_PIVOTS + 1, None)
     assert _shifts_futile(3, failed_at=3) and _shifts_futile(4, failed_at=3)
@@ -260,6 +260,98 @@ def test_skipping_futile_shifts_saves_factorisations_and_keeps_the_equilibrium(m
             np.testing.assert_array_equal(solution.position, tried.position)
         tried = solution
     assert counts[True] < counts[False]
+
+
+@pytest.mark.skipif(not pardiso.available(), reason="the deep phase is told by PARDISO's inertia")
+def test_deep_indefinite_skips_take_the_same_steps_with_fewer_factorisations(monkeypatch, caplog):
+    """A cold standing solve on thin 30 % off Λ̄ starts with 22, 33, 27 and 20 negative pivots: its
+    next steps are projected whatever their exact factor says, so skipping those factorisations must
+    give the same iterates bit for bit, with fewer factorisations, and the log must show the skips."""
+    import breastcore.nonlinear.newton as newton_module
+    counts, solutions = {}, {}
+    real = newton_module.newton
+
+    def counting(skips):
+        def run(*args, **kwargs):
+            result = real(*args, **kwargs)
+            counts[skips] = counts.get(skips, 0) + result.factorizations
+            return result
+        return run
+
+    for skips in (0, 3):
+        monkeypatch.setattr("breastcore.forward.continuation.newton", counting(skips))
+        with caplog.at_level("DEBUG", logger="breastcore.nonlinear.newton"):
+            caplog.clear()
+            _, solutions[skips] = _cold_standing(SolverOptions(deep_indefinite_skips=skips), "thin",
+                                                 (1.3, 0.7, 0.7, 1.3, 1.3, 0.7))
+        skipped = [r.message for r in caplog.records if "inertia skipped" in r.message]
+        assert len(skipped) == (0 if skips == 0 else 3)
+    np.testing.assert_array_equal(solutions[3].position, solutions[0].position)
+    assert solutions[3].iterations == solutions[0].iterations
+    assert counts[3] == counts[0] - 3
+    assert solutions[3].negative_eigenvalues == 0                   # a minimum, checked at the solution
+
+
+class ManySoftModesProblem(SoftModeProblem):
+    """:class:`SoftModeProblem` with one soft mode per block of 3 dofs: 20 blocks, each mean ``m_j`` in
+    the double well ``3 (¼ m⁴ − ½ κ m²)`` with κ = 1.5; near ``z = 0`` the Hessian has 20 negative
+    eigenvalues, more than :data:`~breastcore.nonlinear.indefinite.DEEP_INDEFINITE_PIVOTS`."""
+
+    kappa = 1.5
+
+    def __init__(self, n=60):
+        super().__init__(n)
+        self.blocks = np.arange(n) // 3
+
+    def _means(self, z):
+        return np.bincount(self.blocks, z) / 3.0
+
+    def value(self, z):
+        m = self._means(z)
+        return float(0.5 * z @ (self.A @ z) + 3.0 * np.sum(0.25 * m**4 - 0.5 * self.kappa * m**2) - self.b @ z)
+
+    def gradient(self, z):
+        m = self._means(z)
+        return self.A @ z + (m**3 - self.kappa * m)[self.blocks] - self.b
+
+    def hessian(self, z, project=False):
+        curvature = 3.0 * self._means(z) ** 2 - self.kappa
+        curvature = np.maximum(curvature, 0.0) if project else curvature
+        same = self.blocks[:, None] == self.blocks[None, :]
+        return sp.csr_matrix(self.A.toarray() + same * curvature[self.blocks][:, None] / 3.0)
+
+
+@pytest.mark.skipif(not pardiso.available(), reason="the deep phase is told by PARDISO's inertia")
+def test_a_failed_skipped_step_falls_back_to_a_fresh_one(monkeypatch, caplog):
+    """Where the projected step of a skipped iteration finds no descent step, the iteration takes the
+    full fresh step (exact factorisation, shifts, projection) instead of failing."""
+    import breastcore.nonlinear.newton as newton_module
+    problem = ManySoftModesProblem()
+    z0 = np.full(60, 1e-3)
+    assert np.sum(np.linalg.eigvalsh(problem.hessian(z0).toarray()) < 0) == 20
+    real, calls = newton_module.projected_step, []
+
+    def failing_once(*args):
+        calls.append(args)
+        return (None, "shift", 2) if len(calls) == 2 else real(*args)      # 1: the first fresh step's
+    monkeypatch.setattr(newton_module, "projected_step", failing_once)
+    with caplog.at_level("DEBUG", logger="breastcore.nonlinear.newton"):
+        result = newton(problem, z0, 1e-10, 100, inertia_shift=True, skip_futile_shifts=True, deep_skips=3)
+    modes = [r.message.split("mode=")[1].split(" neg=")[0] for r in caplog.records if "mode=" in r.message]
+    assert modes[0] == "project" and not modes[1].endswith("(inertia skipped)")   # the first skip failed
+    assert any(mode.endswith("(inertia skipped)") for mode in modes[2:])          # the next ones were taken
+    assert result.success and np.linalg.norm(problem.gradient(result.x)) <= 1e-10
+    assert np.linalg.eigvalsh(problem.hessian(result.x).toarray()).min() > 0      # a minimum
+    plain = newton(problem, z0, 1e-10, 100, inertia_shift=True, skip_futile_shifts=True)
+    # the same steps: three exact factorisations skipped, the failed try's two counted
+    np.testing.assert_array_equal(result.x, plain.x)
+    assert result.factorizations == plain.factorizations - 3 + 2
+
+
+@pytest.mark.parametrize("bad", [-1, 1.5, True, "3"])
+def test_deep_indefinite_skips_must_be_a_count(bad):
+    with pytest.raises(ValueError, match="deep_indefinite_skips"):
+        SolverOptions(deep_indefinite_skips=bad)
 
 
 class _FixedFactor:
