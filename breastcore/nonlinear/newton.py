@@ -23,14 +23,15 @@ here; the forward solves use ``SolverOptions.reuse_factor`` (0.5), measured on t
 The step matrix is ``problem.step_hessian(z, project)`` where the problem has one (e.g. with
 the primal-dual sliding blocks of :class:`~breastcore.fem.sliding_dual.SlidingDual`), else
 ``problem.hessian``. With ``inertia_shift``, an indefinite step matrix ``K`` is first replaced
-by ``K + σ |diag K|`` for σ in :data:`~breastcore.nonlinear.indefinite.INERTIA_SHIFTS`, the first whose factor has no negative
-pivot: the PSD projection stiffens every skin and bulk block, so its steps along a soft mode
-are far too short (the line search then doubles them up to 2¹⁰), while a shift just large
-enough for positive definiteness keeps the rest of the curvature.
+by ``K + σ |diag K|`` for σ in :data:`~breastcore.nonlinear.indefinite.INERTIA_SHIFTS`, the first
+whose factor has no negative pivot: the PSD projection stiffens every skin and bulk block, so its
+steps along a soft mode are far too short (the line search then doubles them up to 2¹⁰), while a
+shift just large enough for positive definiteness keeps the rest of the curvature.
 
 With ``deep_skips``, the fresh steps after an exact factorisation with more than
-:data:`~breastcore.nonlinear.indefinite.DEEP_INDEFINITE_PIVOTS` negative pivots take the PSD projection directly: there the exact
-factorisation would only report the inertia (the shifts are skipped at that depth already).
+:data:`~breastcore.nonlinear.indefinite.DEEP_INDEFINITE_PIVOTS` negative pivots take the PSD
+projection directly: there the exact factorisation would only report the inertia (with
+``skip_futile_shifts`` the shifts are not tried at that depth either).
 
 The directions solve for ``problem.step_gradient(z, g)`` where the problem has one (sliding nodes
 released by :meth:`~breastcore.fem.sliding_dual.SlidingDual.release`), else for the gradient ``g``;
@@ -73,8 +74,8 @@ class NewtonResult:
         Iterations that needed the PSD projection or a shift.
     factorizations : int
         Matrices factorised: one per iteration, plus one per inertia shift tried
-        (≤ :data:`~breastcore.nonlinear.indefinite.INERTIA_SHIFTS`) and one each for the projection and its shift where
-        the exact step is refused; fewer than ``iterations`` with chord steps.
+        (≤ :data:`~breastcore.nonlinear.indefinite.INERTIA_SHIFTS`) and one each for the projection
+        and its shift where the exact step is refused; fewer than ``iterations`` with chord steps.
     history : tuple of float
         Gradient norm before each iteration, N.
     message : str
@@ -168,19 +169,21 @@ def newton(problem, z0, tolerance, max_iterations=50, avoid_saddles=False, reuse
         factorisation every iteration (the method before issue #21).
     inertia_shift : bool
         Where the step matrix has negative pivots (or gives no descent), first try the
-        shifts of :data:`~breastcore.nonlinear.indefinite.INERTIA_SHIFTS` (module notes), then the PSD projection. False
-        (default): the projection directly (the method before). Needs PARDISO's inertia.
+        shifts of :data:`~breastcore.nonlinear.indefinite.INERTIA_SHIFTS` (module notes), then the PSD
+        projection. False (default): the projection directly (the method before). Needs PARDISO's inertia.
     step_rtol : float
         Directions are solved to ``‖K d + b‖ ≤ step_rtol ‖b‖`` (inexact Newton; ``b`` the right-hand
         side, ``g`` but for released sliding nodes, module notes); an exact or chord
         step that ends the solve is retaken refined (:func:`_refined_if_last`). Default: refined.
     skip_futile_shifts : bool
         With ``inertia_shift``: go to the projection directly where the shifts cannot help
-        (:func:`~breastcore.nonlinear.indefinite.shifts_futile`). False (default): try them at every indefinite step.
+        (:func:`~breastcore.nonlinear.indefinite.shifts_futile`). False (default): try them at every
+        indefinite step.
     deep_skips : int
-        After an exact factorisation with more than :data:`~breastcore.nonlinear.indefinite.DEEP_INDEFINITE_PIVOTS` negative pivots,
-        this many fresh steps take the PSD projection directly, with no exact factorisation (a failed
-        one falls back to the full step). 0 (default): an exact factorisation at every fresh step.
+        After an exact factorisation with more than
+        :data:`~breastcore.nonlinear.indefinite.DEEP_INDEFINITE_PIVOTS` negative pivots, this many
+        fresh steps take the PSD projection directly, with no exact factorisation (a failed one falls
+        back to the full step). 0 (default): an exact factorisation at every fresh step.
 
     Returns
     -------
@@ -296,11 +299,12 @@ def _refined_if_last(problem, factor, z0, rhs, step, z, energy, tolerance):
 def _fresh_step(problem, z, energy, g, g_norm, pattern, avoid_saddles, shifts=None, step_rtol=REFINEMENT_RTOL):
     """A line-search step along ``−K⁻¹ g`` with ``K`` the exact Hessian (the step matrix and right-hand
     side of released sliding nodes where there are any), else (``inertia_shift``) the smallest of
-    :data:`~breastcore.nonlinear.indefinite.INERTIA_SHIFTS` that makes the plain step matrix positive definite, else its PSD
-    projection, else that shifted: the modified steps solve for ``g`` itself, so that they descend.
+    :data:`~breastcore.nonlinear.indefinite.INERTIA_SHIFTS` that makes the plain step matrix positive
+    definite, else its PSD projection, else that shifted (:func:`~breastcore.nonlinear.indefinite.projected_step`):
+    the modified steps solve for ``g`` itself, so that they descend.
 
-    ``shifts``: a :class:`~breastcore.nonlinear.indefinite.Shifts` (None: no shifts). Returns ``(accepted, mode, exact_factor,
-    factorisations, rhs)``: ``accepted`` as
+    ``shifts``: a :class:`~breastcore.nonlinear.indefinite.Shifts` (None: no shifts). Returns
+    ``(accepted, mode, exact_factor, factorisations, rhs)``: ``accepted`` as
     :func:`~breastcore.nonlinear.line_search._line_search` (None if no mode gave a descent
     step), the mode that gave it, the exact Hessian's factor (its inertia; None if it
     failed), and the right-hand side the exact direction solved for: ``problem.step_gradient(z, g)``
