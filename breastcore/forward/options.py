@@ -91,9 +91,10 @@ class SolverOptions:
         (:data:`~breastcore.nonlinear.indefinite.DEEP_INDEFINITE_PIVOTS`), this many fresh steps take
         the PSD projection directly. The exact factorisation there would only report the inertia
         (with ``skip_futile_shifts`` the shifts are not tried at that depth), and the projected step
-        is the one taken after it, so the path is the same while the count stays above 7. Default 3
-        (docs/benchmarks.md, "Deep indefinite phases"); 0: an exact factorisation at every fresh
-        step, the method before.
+        is the one taken after it, so the path is the same while the count stays above 7. No effect
+        without ``inertia_shift`` and ``skip_futile_shifts``, where the skipped factorisation could
+        change the step. Default 3 (docs/benchmarks.md, "Deep indefinite phases"); 0: an exact
+        factorisation at every fresh step, the method before.
     max_final_attempts : int
         The final δ step (full gravity, target δ, full tolerance) may fail this many
         times, each from a different converged neighbour, before the solve raises.

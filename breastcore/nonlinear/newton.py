@@ -84,8 +84,8 @@ class NewtonResult:
         Negative eigenvalues of the exact Hessian (PARDISO's inertia; ``None`` if
         unknown) where it was last factorised: at ``x`` if ``inertia_at_x``, else at
         the iterate before the last step (a Newton solve factorises before it steps),
-        or, after chord steps (``reuse > 0``), at the iterate of the factor they reused; None after
-        a step that skipped the exact factorisation (``deep_skips``).
+        or, after chord steps (``reuse > 0``) or steps that skipped the exact factorisation
+        (``deep_skips``), at the iterate of the last exact factor.
     inertia_at_x : bool
         Whether ``negative_pivots`` is the inertia at ``x`` itself. Non-zero
         inertia at ``x`` means the equilibrium is a saddle, not a minimum.
@@ -182,8 +182,8 @@ def newton(problem, z0, tolerance, max_iterations=50, avoid_saddles=False, reuse
     deep_skips : int
         After an exact factorisation with more than
         :data:`~breastcore.nonlinear.indefinite.DEEP_INDEFINITE_PIVOTS` negative pivots, this many
-        fresh steps take the PSD projection directly, with no exact factorisation (a failed one falls
-        back to the full step). 0 (default): an exact factorisation at every fresh step.
+        fresh steps take the PSD projection directly (a failed one falls back to the full step); only
+        where that is the step taken anyway (``_Steps``). 0 (default): none skipped.
 
     Returns
     -------
@@ -229,7 +229,9 @@ class _Steps:
     """How :func:`newton` takes a step: a chord step with the kept factor where it may, else a fresh one.
 
     Counts the factorisations and the modified (projected or shifted) steps, and keeps the inertia of
-    the last exact factor.
+    the last exact factor. ``deep_skips`` act only where a skipped step is the one taken anyway: an
+    indefinite exact step refused (``inertia_shift`` or ``avoid_saddles``) and no shift tried above
+    :data:`~breastcore.nonlinear.indefinite.MAX_SHIFT_PIVOTS` (no shifts, or ``skip_futile_shifts``).
     """
 
     def __init__(self, problem, reuse, avoid_saddles, shifts, step_rtol, deep_skips=0):
@@ -237,7 +239,8 @@ class _Steps:
         self.step_rtol, self.pattern = step_rtol, getattr(problem, "pattern", None)   # reuse the symbolic analysis
         self.kept = self.inertia = None                              # kept: the last exact factor (chord steps)
         self.factorizations = self.projected = 0
-        self.deep_skips, self.skips_left = deep_skips, 0
+        same = (avoid_saddles or shifts.enabled) and (shifts.skip_futile or not shifts.enabled)
+        self.deep_skips, self.skips_left = (deep_skips if same else 0), 0
 
     def take(self, z, energy, g, g_norm, history):
         """``(accepted, mode, used)``: the line search's outcome (None: no descent step), the step's
@@ -253,8 +256,8 @@ class _Steps:
             accepted, mode, tried = projected_step(self.problem, z, energy, g, g_norm, g, self.pattern,
                                                     self.step_rtol)
             self.factorizations += tried
-            if accepted is not None:               # the inertia here is unknown
-                self.projected, self.kept, self.inertia = self.projected + 1, None, None
+            if accepted is not None:               # self.inertia stays the last exact factor's
+                self.projected, self.kept = self.projected + 1, None
                 return accepted, f"{mode} (inertia skipped)", None
         accepted, mode, factor, tried, rhs = _fresh_step(self.problem, z, energy, g, g_norm, self.pattern,
                                                          self.avoid_saddles, self.shifts, self.step_rtol)

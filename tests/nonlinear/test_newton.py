@@ -348,6 +348,22 @@ def test_a_failed_skipped_step_falls_back_to_a_fresh_one(monkeypatch, caplog):
     assert result.factorizations == plain.factorizations - 3 + 2
 
 
+@pytest.mark.skipif(not pardiso.available(), reason="the deep phase is told by PARDISO's inertia")
+@pytest.mark.parametrize("options", [dict(), dict(inertia_shift=True)], ids=["plain", "every-shift"])
+def test_deep_skips_do_nothing_where_the_exact_factorisation_could_change_the_step(options, caplog):
+    """Without ``inertia_shift`` an indefinite exact step that descends is taken; without
+    ``skip_futile_shifts`` the shifts are tried at any depth: skipping there would change the steps,
+    so ``deep_skips`` must not skip, and the solve must equal the one without it."""
+    problem = ManySoftModesProblem()
+    z0 = np.full(60, 1e-3)
+    with caplog.at_level("DEBUG", logger="breastcore.nonlinear.newton"):
+        skipping = newton(problem, z0, 1e-10, 100, deep_skips=3, **options)
+    assert not [r for r in caplog.records if "inertia skipped" in r.message]
+    plain = newton(problem, z0, 1e-10, 100, **options)
+    np.testing.assert_array_equal(skipping.x, plain.x)
+    assert skipping.factorizations == plain.factorizations
+
+
 @pytest.mark.parametrize("bad", [-1, 1.5, True, "3"])
 def test_deep_indefinite_skips_must_be_a_count(bad):
     with pytest.raises(ValueError, match="deep_indefinite_skips"):
