@@ -142,15 +142,10 @@ class SolverOptions:
             if not isinstance(getattr(self, name), (bool, np.bool_)):
                 raise ValueError(f"solver option {name} must be true or false, got {getattr(self, name)!r}")
             object.__setattr__(self, name, bool(getattr(self, name)))       # JSON-able in the spec
-        if isinstance(self.mixed_precision_min_dofs, bool) or not (
-                isinstance(self.mixed_precision_min_dofs, (int, np.integer)) and self.mixed_precision_min_dofs >= 0):
-            raise ValueError(f"solver option mixed_precision_min_dofs must be an integer ≥ 0, "
-                             f"got {self.mixed_precision_min_dofs!r}")
-        object.__setattr__(self, "mixed_precision_min_dofs", int(self.mixed_precision_min_dofs))
-        if isinstance(self.deep_indefinite_skips, bool) or not (
-                isinstance(self.deep_indefinite_skips, (int, np.integer)) and self.deep_indefinite_skips >= 0):
-            raise ValueError(f"solver option deep_indefinite_skips must be an integer ≥ 0, "
-                             f"got {self.deep_indefinite_skips!r}")
-        object.__setattr__(self, "deep_indefinite_skips", int(self.deep_indefinite_skips))
+        for name in ("mixed_precision_min_dofs", "deep_indefinite_skips"):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not (isinstance(value, (int, np.integer)) and value >= 0):
+                raise ValueError(f"solver option {name} must be an integer ≥ 0, got {value!r}")
+            object.__setattr__(self, name, int(value))
         if int(self.max_final_attempts) < 1:
             raise ValueError("solver option max_final_attempts must be ≥ 1")

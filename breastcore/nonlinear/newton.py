@@ -250,9 +250,7 @@ class _Steps:
             if accepted is not None:
                 return accepted, "chord", (self.kept, g)
         if self.skips_left > 0:                  # deep in an indefinite phase: no exact factorisation
-            self.skips_left -= 1
-            if hasattr(self.problem, "step_gradient"):
-                self.problem.step_gradient(z, g, release=False)        # the plain step matrix
+            self.skips_left -= 1          # (an earlier release is keyed to its own positions: not applied here)
             accepted, mode, tried = projected_step(self.problem, z, energy, g, g_norm, g, self.pattern,
                                                     self.step_rtol)
             self.factorizations += tried
