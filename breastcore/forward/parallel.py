@@ -10,6 +10,8 @@ from __future__ import annotations
 import multiprocessing as mp
 from concurrent.futures import ProcessPoolExecutor
 
+from breastcore.linalg.pardiso import one_thread_in_forked_worker
+
 _CHILD_FUNCTION = None    # set in a forked worker only (by start_worker), never in the caller
 
 
@@ -46,9 +48,12 @@ def fork_context():
 
 def start_worker(function, after_fork):
     """A forked worker's initializer: keep ``function`` (reached through copied memory) for
-    :func:`run_in_worker`, then run ``after_fork``."""
+    :func:`run_in_worker`, put PARDISO on one thread (a multi-threaded one hangs or crashes
+    after ``fork``: :func:`~breastcore.linalg.pardiso.one_thread_in_forked_worker`), then run
+    ``after_fork``."""
     global _CHILD_FUNCTION
     _CHILD_FUNCTION = function
+    one_thread_in_forked_worker()
     if after_fork is not None:
         after_fork()
 

@@ -99,7 +99,7 @@ class Factorization:
 
     def _solve_factor(self, b):
         handle = self._pattern.handle(single=self.mixed)
-        if handle.owner != self._token:                              # another factor took the handle, or freed it
+        if not handle.holds(self._token):                            # another factor took the handle, or freed it
             handle = self._pattern.handle_to_factorize(single=self.mixed)
             handle.factorize(self._data, self._token)
         return handle.solve(self._data, b).astype(float, copy=False)

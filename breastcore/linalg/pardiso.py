@@ -39,11 +39,14 @@ def _mkl_runtime_name() -> str:
 #: Threads PARDISO may use (environment variable ``BREASTCORE_PARDISO_THREADS``, default 1).
 #: On this project's 2-core machines two solves (or a solve and another job) often run at
 #: once; a 2-thread PARDISO then waits for a busy core and a 25 ms factorisation takes
-#: 60-200 ms, a solve 40-160 ms instead of 2 ms (measured, see docs/benchmarks.md).
+#: 60-200 ms, a solve 40-160 ms instead of 2 ms (measured, see docs/benchmarks.md). Forked
+#: workers (postures or re-identifications in several processes) run on one thread whatever it
+#: says (:func:`one_thread_in_forked_worker`).
 PARDISO_THREADS_ENV = "BREASTCORE_PARDISO_THREADS"
 
 
-def _set_pardiso_threads(lib):
+def _set_pardiso_threads(lib) -> int:
+    """Set MKL's thread count from :data:`PARDISO_THREADS_ENV`; the count set (0: the runtime's default kept)."""
     try:
         threads = int(os.environ.get(PARDISO_THREADS_ENV, "1"))
     except ValueError:
@@ -53,7 +56,8 @@ def _set_pardiso_threads(lib):
             lib.MKL_Set_Num_Threads.argtypes = [ctypes.c_int]        # has its own BLAS)
             lib.MKL_Set_Num_Threads(threads)
         except AttributeError:                                       # not an MKL runtime: keep its default
-            pass
+            return 0
+    return max(threads, 0)
 
 
 class _Pardiso:
@@ -66,11 +70,14 @@ class _Pardiso:
     """
 
     _function = None
+    _library = None
+    _threads = 0                                                     # MKL's thread count now (0: its default)
 
     def __init__(self, n, ia, ja, single=False):
         if _Pardiso._function is None:
             lib = ctypes.CDLL(os.environ.get("PYPARDISO_MKL_RT") or _mkl_runtime_name())   # read, never set
-            _set_pardiso_threads(lib)
+            _Pardiso._threads = _set_pardiso_threads(lib)
+            _Pardiso._library = lib
             fn = lib.pardiso
             p_int = ctypes.POINTER(ctypes.c_int32)
             fn.argtypes = [ctypes.POINTER(ctypes.c_int64), p_int, p_int, p_int, p_int, p_int, ctypes.c_void_p,
@@ -89,6 +96,20 @@ class _Pardiso:
         self.analysed = False
         self.numeric = False                                         # whether L and U may be allocated
         self.owner = None                                            # token of the factor held now
+        self.threads = None                                          # MKL's thread count at the analysis
+
+    def _forget_if_threads_changed(self):
+        """Forget an analysis (and factor) made on another thread count, without calling PARDISO on it.
+
+        PARDISO may not change its thread count between phases: a factorisation (phase 22) on a
+        handle analysed with 2 threads segfaults with 1 (MKL 2026.2). That happens in a worker
+        forked from a process that used 2 (:func:`one_thread_in_forked_worker`). The inherited
+        memory is the parent's copy: it is left, not freed, and the analysis is redone here.
+        """
+        if self.analysed and self.threads != _Pardiso._threads:
+            self.pt[:] = 0
+            self.analysed = self.numeric = False
+            self.owner = None
 
     def _call(self, phase, data, b=None, nrhs=1):
         c_int = ctypes.c_int32
@@ -115,16 +136,18 @@ class _Pardiso:
         so zeros stand in for the values: the factors that follow are those of an analysis at the
         first factorisation, bit for bit (``tests/linalg/test_factorization.py``).
         """
+        self._forget_if_threads_changed()
         if not self.analysed:
             self._call(11, np.zeros(len(self.ja), dtype=self.dtype))
-            self.analysed = True
+            self.analysed, self.threads = True, _Pardiso._threads
 
     def factorize(self, data, owner):
         """Numeric factorisation of the matrix with upper-triangle values ``data``."""
         self.owner = None
+        self._forget_if_threads_changed()
         if not self.analysed:
             self._call(11, data)
-            self.analysed = True
+            self.analysed, self.threads = True, _Pardiso._threads
         self.numeric = True                                          # phase 22 may allocate even if it fails
         self._call(22, data)
         self.owner = owner
@@ -136,9 +159,15 @@ class _Pardiso:
         A numeric factorisation (phase 22) may follow without a new analysis: checked on MKL 2026.2
         (``tests/linalg/test_factorization.py``); MKL's documentation does not say so.
         """
+        self._forget_if_threads_changed()
         if self.numeric:
             self.owner, self.numeric = None, False
             self._call(0, None)
+
+    def holds(self, owner) -> bool:
+        """Whether the numeric factor held now is ``owner``'s (and was made on this thread count)."""
+        self._forget_if_threads_changed()
+        return self.owner is not None and self.owner == owner
 
     def solve(self, data, b):
         b = np.asfortranarray(b, dtype=self.dtype)
@@ -146,6 +175,7 @@ class _Pardiso:
         return np.ascontiguousarray(self._call(33, data, b, nrhs))
 
     def free(self):
+        self._forget_if_threads_changed()
         if self.analysed and self._function is not None:
             try:
                 self._call(-1, None)
@@ -247,3 +277,17 @@ class SymmetricPattern:
         for handle in self._handles.values():
             handle.free()
         self._handles = {}
+
+
+def one_thread_in_forked_worker():
+    """Make PARDISO single-threaded in this process, a worker forked from one that may have used it.
+
+    MKL here may run on GNU OpenMP (``libmkl_gnu_thread``, chosen when another library has loaded
+    ``libgomp``), whose thread pool does not survive ``fork``: a forked child's first multi-threaded
+    factorisation waits for ever for threads that were not copied (seen with
+    ``BREASTCORE_PARDISO_THREADS=2`` and the postures in two processes). One thread per worker is
+    also what two workers on two cores want.
+    """
+    os.environ[PARDISO_THREADS_ENV] = "1"
+    if _Pardiso._library is not None:
+        _Pardiso._threads = _set_pardiso_threads(_Pardiso._library)

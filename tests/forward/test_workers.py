@@ -10,6 +10,7 @@ import textwrap
 import pytest
 
 from breastcore.forward.workers import Workers
+from breastcore.linalg import pardiso
 
 
 class Counter:
@@ -161,3 +162,32 @@ def test_a_target_that_holds_its_workers_is_collected_and_its_workers_shut_down(
     del target
     gc.collect()
     assert not ours & {p.pid for p in mp.active_children()}   # collected, and its workers joined
+
+
+@pytest.mark.skipif(not pardiso.available(), reason="PARDISO (MKL) not installed")
+def test_postures_in_two_processes_on_a_two_thread_pardiso_match_one_process():
+    """``BREASTCORE_PARDISO_THREADS=2``: the parent analyses on 2 threads, its forked workers factorise
+    on 1 and redo the analyses. Before, a worker hung in its first factorisation (GNU OpenMP's threads
+    are not copied by fork) or, on 1 thread, segfaulted (a handle analysed on 2). In a fresh
+    interpreter, whose MKL has not been loaded yet."""
+    script = textwrap.dedent("""
+        import numpy as np
+        from breastcore.forward.model import ForwardModel
+        from breastcore.inverse.operator import MeasurementModel
+        from breastcore.model.mesh import mesh_level
+        from breastcore.model.parameters import Parameters
+        from breastcore.model.postures import paper_postures
+
+        model = ForwardModel(mesh_level("medium"))
+        values = np.array(Parameters().identified())
+        with MeasurementModel(model, Parameters(), paper_postures(), processes=2) as mm:
+            parallel = mm.measure(mm.solve(values))
+        with MeasurementModel(model, Parameters(), paper_postures()) as mm:
+            serial = mm.measure(mm.solve(values))
+        print(float(np.abs(parallel / serial - 1).max()))
+    """)
+    env = dict(os.environ, **{pardiso.PARDISO_THREADS_ENV: "2"})
+    run = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=60, env=env)
+    assert run.returncode == 0, run.stderr
+    assert float(run.stdout.split()[-1]) <= 1e-8                  # the solve tolerance's order: a 2-thread
+                                                                  # factor rounds differently from a 1-thread one

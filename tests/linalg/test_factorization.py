@@ -106,6 +106,24 @@ def test_freeing_a_factor_calls_phase_0_once_and_keeps_the_symbolic_analysis(sma
     assert phases == [0, 22, 33]
 
 
+def test_a_handle_analysed_on_another_thread_count_is_analysed_again_without_touching_the_old_one(
+        small_box, rng, monkeypatch):
+    """As in a worker forked from a 2-thread process: the old analysis and factor are forgotten (PARDISO
+    segfaults on them), the factor is redone from its matrix, and the solution is the same."""
+    K, assembler, b = _box_system(small_box, rng)
+    pattern = assembler.pattern
+    first = Factorization(K, pattern, mixed=False)
+    x = first.solve(b)
+    handle = pattern.handle(single=False)
+    phases = []
+    call = handle._call
+    monkeypatch.setattr(handle, "_call", lambda phase, *args, **kw: phases.append(phase) or call(phase, *args, **kw))
+    monkeypatch.setattr(pardiso._Pardiso, "_threads", handle.threads + 1)   # as one_thread_in_forked_worker does
+    assert not handle.holds(first._token) and not handle.analysed and not handle.pt.any()
+    np.testing.assert_allclose(first.solve(b), x, rtol=1e-12)
+    assert phases == [11, 22, 33] and handle.threads == pardiso._Pardiso._threads
+
+
 def test_newton_in_mixed_precision_reaches_the_same_equilibrium():
     params, fours = Parameters(), parse_posture("fours")
     model = ForwardModel(mesh_level("coarse"), SolverOptions(mixed_precision_min_dofs=100_000))
