@@ -209,7 +209,9 @@ class ForwardModel:
         analyses, so that this process makes its own.
 
         With ``keep_analyses`` the child factorises on its copies of the parent's handles: the
-        symbolic analysis the parent did (:meth:`solve_postures`) is not redone in every child.
+        symbolic analysis the parent did (:meth:`solve_postures`) is not redone in every child
+        (unless the parent's PARDISO ran on more than one thread: a child runs on one, and its handles
+        redo an analysis made on another thread count).
         """
         self._tangents = {}
         if keep_analyses:
@@ -222,8 +224,9 @@ class ForwardModel:
         """Equilibria of several postures, optionally in ``processes`` forked worker processes.
 
         The postures are independent solves, so running them in parallel gives the
-        same results bit for bit (PARDISO runs single-threaded, see
-        :data:`breastcore.linalg.pardiso.PARDISO_THREADS_ENV`). ``starts`` maps a posture
+        same results bit for bit with a single-threaded PARDISO (the default; forked workers always
+        run on one thread, so with ``BREASTCORE_PARDISO_THREADS`` > 1 the results differ from a serial
+        run's by round-off, see :data:`breastcore.linalg.pardiso.PARDISO_THREADS_ENV`). ``starts`` maps a posture
         name to a warm start. Falls back to one process where ``fork`` is not
         available or this process may not have children (a daemon). Workers are forked at
         every call; an identification keeps its own (:class:`~breastcore.forward.workers.Workers`).
@@ -244,7 +247,7 @@ class ForwardModel:
 
         if (processes or 1) > 1:
             # the symbolic analyses, here once: each forked worker inherits them (on ultra-thin 25 ms
-            # a posture, which every worker of every call redid before)
+            # a posture, which every worker of every call redid before; on one PARDISO thread only)
             self.analyse_slots(params.fold_angle, postures)
         return raise_first_failure(fork_map(solve, len(postures), processes or 1,
                                             after_fork=functools.partial(self.after_fork, keep_analyses=True)))

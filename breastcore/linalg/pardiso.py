@@ -45,6 +45,9 @@ def _mkl_runtime_name() -> str:
 PARDISO_THREADS_ENV = "BREASTCORE_PARDISO_THREADS"
 
 
+_MKL_DOMAIN_PARDISO = 4                                              # mkl_service.h
+
+
 def _set_pardiso_threads(lib) -> int:
     """Set MKL's thread count from :data:`PARDISO_THREADS_ENV`; the count set (0: the runtime's default kept)."""
     try:
@@ -57,6 +60,11 @@ def _set_pardiso_threads(lib) -> int:
             lib.MKL_Set_Num_Threads(threads)
         except AttributeError:                                       # not an MKL runtime: keep its default
             return 0
+        try:                                                         # a PARDISO domain setting (environment
+            lib.MKL_Domain_Set_Num_Threads.argtypes = [ctypes.c_int, ctypes.c_int]   # MKL_DOMAIN_NUM_THREADS)
+            lib.MKL_Domain_Set_Num_Threads(threads, _MKL_DOMAIN_PARDISO)            # would override the call above
+        except AttributeError:
+            pass
     return max(threads, 0)
 
 
@@ -71,7 +79,7 @@ class _Pardiso:
 
     _function = None
     _library = None
-    _threads = 0                                                     # MKL's thread count now (0: its default)
+    _threads = 0                                 # the thread count breastcore set for PARDISO (0: MKL's default)
 
     def __init__(self, n, ia, ja, single=False):
         if _Pardiso._function is None:
@@ -170,6 +178,9 @@ class _Pardiso:
         return self.owner is not None and self.owner == owner
 
     def solve(self, data, b):
+        self._forget_if_threads_changed()
+        if not self.numeric:                                         # a forgotten or freed factor: phase 33
+            raise RuntimeError("PARDISO solve without a numeric factor")   # would read no memory of ours
         b = np.asfortranarray(b, dtype=self.dtype)
         nrhs = 1 if b.ndim == 1 else b.shape[1]
         return np.ascontiguousarray(self._call(33, data, b, nrhs))
@@ -248,7 +259,8 @@ class SymmetricPattern:
 
     def analyse(self, single=False):
         """Do the symbolic analysis of :meth:`handle` now (e.g. before forking workers, which then
-        inherit it instead of each making their own)."""
+        inherit it instead of each making their own; on more than one thread they make their own anyway:
+        :func:`one_thread_in_forked_worker`)."""
         self.handle(single).analyse()
 
     def handle_to_factorize(self, single=False):

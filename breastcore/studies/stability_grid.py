@@ -188,7 +188,10 @@ def run_case(case, level="coarse"):
 
 
 def _worker(level, tasks, results):
+    from breastcore.linalg.pardiso import one_thread_in_forked_worker
+
     os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+    one_thread_in_forked_worker()                     # forked: a multi-threaded PARDISO would hang here
     while True:
         item = tasks.get()
         if item is None:

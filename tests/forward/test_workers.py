@@ -3,6 +3,7 @@
 import gc
 import multiprocessing as mp
 import os
+import signal
 import subprocess
 import sys
 import textwrap
@@ -187,7 +188,13 @@ def test_postures_in_two_processes_on_a_two_thread_pardiso_match_one_process():
         print(float(np.abs(parallel / serial - 1).max()))
     """)
     env = dict(os.environ, **{pardiso.PARDISO_THREADS_ENV: "2"})
-    run = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=60, env=env)
-    assert run.returncode == 0, run.stderr
-    assert float(run.stdout.split()[-1]) <= 1e-8                  # the solve tolerance's order: a 2-thread
+    with subprocess.Popen([sys.executable, "-c", script], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                          env=env, start_new_session=True) as child:
+        try:
+            out, err = child.communicate(timeout=60)
+        except subprocess.TimeoutExpired:
+            os.killpg(child.pid, signal.SIGKILL)                   # the hung workers too, not the interpreter only
+            raise
+    assert child.returncode == 0, err
+    assert float(out.split()[-1]) <= 1e-8                  # the solve tolerance's order: a 2-thread
                                                                   # factor rounds differently from a 1-thread one

@@ -120,8 +120,11 @@ def test_a_handle_analysed_on_another_thread_count_is_analysed_again_without_tou
     monkeypatch.setattr(handle, "_call", lambda phase, *args, **kw: phases.append(phase) or call(phase, *args, **kw))
     monkeypatch.setattr(pardiso._Pardiso, "_threads", handle.threads + 1)   # as one_thread_in_forked_worker does
     assert not handle.holds(first._token) and not handle.analysed and not handle.pt.any()
+    with pytest.raises(RuntimeError, match="without a numeric factor"):
+        handle.solve(first._data, b)                               # not phase 33 on forgotten memory
     np.testing.assert_allclose(first.solve(b), x, rtol=1e-12)
     assert phases == [11, 22, 33] and handle.threads == pardiso._Pardiso._threads
+    pattern.release()                                              # freed on the patched count, not leaked
 
 
 def test_newton_in_mixed_precision_reaches_the_same_equilibrium():

@@ -129,3 +129,39 @@ def test_warm_start_after_changing_all_six_parameters_is_short():
         start = model.solve(params, posture).position
         warm = model.solve(changed, posture, start=start)
         assert warm.continuation_steps == 1 and warm.iterations <= 6, (posture.name, warm.iterations)
+
+
+def test_grid_workers_forked_from_a_two_thread_pardiso_finish():
+    """``BREASTCORE_PARDISO_THREADS=2``, and the parent factorised before forking: a worker's factorisation
+    on 2 threads hung for ever (GNU OpenMP's threads are not copied by fork), so every case timed out.
+    Workers now run PARDISO on one thread. In a fresh interpreter, whose MKL has not been loaded yet."""
+    import os
+    import signal
+    import subprocess
+    import sys
+    import textwrap
+
+    from breastcore.linalg import pardiso
+    if not pardiso.available():
+        pytest.skip("PARDISO (MKL) not installed")
+    script = textwrap.dedent("""
+        from breastcore.linalg.factorization import Factorization
+        from breastcore.model.postures import parse_posture
+        from breastcore.studies import stability_grid as grid
+
+        problem = grid._model("coarse").problem(grid.parameters(grid.PAPER), parse_posture("bent45"))
+        Factorization(problem.hessian(problem.free(problem.reference)), problem.pattern)   # MKL's threads start
+        cases = grid.sampled_grid(2)[:2]
+        rows = grid.run_all(cases, processes=2, timeout=30, progress=False)
+        print(" ".join(row["outcome"] for row in rows))
+    """)
+    env = dict(os.environ, **{pardiso.PARDISO_THREADS_ENV: "2"})
+    with subprocess.Popen([sys.executable, "-c", script], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                          env=env, start_new_session=True) as child:
+        try:
+            out, err = child.communicate(timeout=120)
+        except subprocess.TimeoutExpired:
+            os.killpg(child.pid, signal.SIGKILL)
+            raise
+    assert child.returncode == 0, err
+    assert out.split() == ["converged", "converged"]
