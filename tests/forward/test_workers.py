@@ -3,12 +3,13 @@
 import gc
 import multiprocessing as mp
 import os
-import signal
 import subprocess
 import sys
 import textwrap
 
 import pytest
+
+from subprocesses import run_script
 
 from breastcore.forward.workers import Workers
 from breastcore.linalg import pardiso
@@ -187,14 +188,7 @@ def test_postures_in_two_processes_on_a_two_thread_pardiso_match_one_process():
             serial = mm.measure(mm.solve(values))
         print(float(np.abs(parallel / serial - 1).max()))
     """)
-    env = dict(os.environ, **{pardiso.PARDISO_THREADS_ENV: "2"})
-    with subprocess.Popen([sys.executable, "-c", script], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                          env=env, start_new_session=True) as child:
-        try:
-            out, err = child.communicate(timeout=60)
-        except subprocess.TimeoutExpired:
-            os.killpg(child.pid, signal.SIGKILL)                   # the hung workers too, not the interpreter only
-            raise
-    assert child.returncode == 0, err
+    code, out, err = run_script(script, dict(os.environ, **{pardiso.PARDISO_THREADS_ENV: "2"}), timeout=60)
+    assert code == 0, err
     assert float(out.split()[-1]) <= 1e-8                  # the solve tolerance's order: a 2-thread
                                                                   # factor rounds differently from a 1-thread one

@@ -90,8 +90,10 @@ def test_a_pattern_holds_one_numeric_factor_at_a_time_across_precisions(rng):
     np.testing.assert_array_equal(Factorization(well, pattern, mixed=True).solve(b), y)
 
 
-def test_freeing_a_factor_calls_phase_0_once_and_keeps_the_symbolic_analysis(small_box, rng, monkeypatch):
-    K, assembler, b = _box_system(small_box, rng)
+def _solved_with_phases_recorded(box, rng, monkeypatch):
+    """A solved double-precision factor of the box system, and the PARDISO phases its handle calls from now on:
+    ``(pattern, factor, b, x, handle, phases)``."""
+    K, assembler, b = _box_system(box, rng)
     pattern = assembler.pattern
     first = Factorization(K, pattern, mixed=False)
     x = first.solve(b)
@@ -99,6 +101,11 @@ def test_freeing_a_factor_calls_phase_0_once_and_keeps_the_symbolic_analysis(sma
     phases = []
     call = handle._call
     monkeypatch.setattr(handle, "_call", lambda phase, *args, **kw: phases.append(phase) or call(phase, *args, **kw))
+    return pattern, first, b, x, handle, phases
+
+
+def test_freeing_a_factor_calls_phase_0_once_and_keeps_the_symbolic_analysis(small_box, rng, monkeypatch):
+    _, first, b, x, handle, phases = _solved_with_phases_recorded(small_box, rng, monkeypatch)
     handle.release_factor()
     handle.release_factor()                                        # a second release is a no-op
     assert phases == [0] and handle.owner is None
@@ -110,14 +117,7 @@ def test_a_handle_analysed_on_another_thread_count_is_analysed_again_without_tou
         small_box, rng, monkeypatch):
     """As in a worker forked from a 2-thread process: the old analysis and factor are forgotten (PARDISO
     segfaults on them), the factor is redone from its matrix, and the solution is the same."""
-    K, assembler, b = _box_system(small_box, rng)
-    pattern = assembler.pattern
-    first = Factorization(K, pattern, mixed=False)
-    x = first.solve(b)
-    handle = pattern.handle(single=False)
-    phases = []
-    call = handle._call
-    monkeypatch.setattr(handle, "_call", lambda phase, *args, **kw: phases.append(phase) or call(phase, *args, **kw))
+    pattern, first, b, x, handle, phases = _solved_with_phases_recorded(small_box, rng, monkeypatch)
     monkeypatch.setattr(pardiso._Pardiso, "_threads", handle.threads + 1)   # as one_thread_in_forked_worker does
     assert not handle.holds(first._token) and not handle.analysed and not handle.pt.any()
     with pytest.raises(RuntimeError, match="without a numeric factor"):

@@ -136,10 +136,9 @@ def test_grid_workers_forked_from_a_two_thread_pardiso_finish():
     on 2 threads hung for ever (GNU OpenMP's threads are not copied by fork), so every case timed out.
     Workers now run PARDISO on one thread. In a fresh interpreter, whose MKL has not been loaded yet."""
     import os
-    import signal
-    import subprocess
-    import sys
     import textwrap
+
+    from subprocesses import run_script
 
     from breastcore.linalg import pardiso
     if not pardiso.available():
@@ -155,13 +154,6 @@ def test_grid_workers_forked_from_a_two_thread_pardiso_finish():
         rows = grid.run_all(cases, processes=2, timeout=30, progress=False)
         print(" ".join(row["outcome"] for row in rows))
     """)
-    env = dict(os.environ, **{pardiso.PARDISO_THREADS_ENV: "2"})
-    with subprocess.Popen([sys.executable, "-c", script], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                          env=env, start_new_session=True) as child:
-        try:
-            out, err = child.communicate(timeout=120)
-        except subprocess.TimeoutExpired:
-            os.killpg(child.pid, signal.SIGKILL)
-            raise
-    assert child.returncode == 0, err
+    code, out, err = run_script(script, dict(os.environ, **{pardiso.PARDISO_THREADS_ENV: "2"}), timeout=120)
+    assert code == 0, err
     assert out.split() == ["converged", "converged"]
