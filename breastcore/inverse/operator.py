@@ -57,7 +57,8 @@ class MeasurementModel:
         the cold path that defines ``M(Λ)``, while nearby warm starts follow the same branch.
     processes : int
         The postures are solved in this many forked worker processes (the same results bit
-        for bit with one PARDISO thread, the default; by round-off otherwise), forked at the first such solve and kept until :meth:`close`
+        for bit with one PARDISO thread, the default; by round-off otherwise), forked at the
+        first such solve and kept until :meth:`close`
         (:class:`~breastcore.forward.workers.Workers`): each keeps its copy of this model, as
         it was then (change nothing in a model whose workers run), with its PARDISO analyses
         and caches, and the factors of the posture it solved last. Serial inside a process

@@ -104,7 +104,7 @@ class _Pardiso:
         self.analysed = False
         self.numeric = False                                         # whether L and U may be allocated
         self.owner = None                                            # token of the factor held now
-        self.threads = None                                          # MKL's thread count at the analysis
+        self.threads = None                                          # _threads at the analysis
 
     def _forget_if_threads_changed(self):
         """Forget an analysis (and factor) made on another thread count, without calling PARDISO on it.
