@@ -227,11 +227,11 @@ def test_step_rtol_must_be_at_least_the_refinement_tolerance_and_below_1():
 
 
 def test_shifts_are_futile_above_the_pivot_cap_or_where_they_failed_with_as_many_pivots():
-    from breastcore.nonlinear.indefinite import MAX_SHIFT_PIVOTS, shifts_futile as _shifts_futile
-    assert not _shifts_futile(MAX_SHIFT_PIVOTS, None)
-    assert _shifts_futile(MAX_SHIFT_PIVOTS + 1, None)
-    assert _shifts_futile(3, failed_at=3) and _shifts_futile(4, failed_at=3)
-    assert not _shifts_futile(2, failed_at=3)                      # fewer negative pivots: worth a try again
+    from breastcore.nonlinear.indefinite import MAX_SHIFT_PIVOTS, shifts_futile
+    assert not shifts_futile(MAX_SHIFT_PIVOTS, None)
+    assert shifts_futile(MAX_SHIFT_PIVOTS + 1, None)
+    assert shifts_futile(3, failed_at=3) and shifts_futile(4, failed_at=3)
+    assert not shifts_futile(2, failed_at=3)                      # fewer negative pivots: worth a try again
 
 
 @pytest.mark.skipif(not pardiso.available(), reason="the shifts need PARDISO's inertia")
