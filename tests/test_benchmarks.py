@@ -40,7 +40,7 @@ def test_make_bench_runs_every_script_in_its_quick_mode():
     assert {s.stem for s in SCRIPTS} == {"bench_cold_factorisations", "bench_cold_variants", "bench_delta_newton",
                                          "bench_factorization", "bench_forward", "bench_identify",
                                          "bench_inertia", "bench_iterative_solver", "bench_kernels",
-                                         "bench_problem_builds", "bench_projection", "bench_solver_option",
+                                         "bench_newton_floor", "bench_problem_builds", "bench_projection", "bench_solver_option",
                                          "bench_table1_variants",
                                          "bench_warm_distance", "bench_warm_radius"}
     run = MAKEFILE.split("BENCH_RUN =")[1].split("\n\n")[0]
@@ -81,6 +81,8 @@ def test_quick_defaults_leave_the_full_defaults_alone():
     assert bench["bench_factorization"].parse_args([]).levels[-1] == "fine50k"
     assert "fine50k" not in bench["bench_factorization"].parse_args(["--quick"]).levels
     assert bench["bench_projection"].parse_args([]).repeats == 7
+    floor = bench["bench_newton_floor"].parse_args([])
+    assert (floor.levels, floor.repeats, floor.deltas) == (["ultra-thin", "reference", "fine10k"], 3, [1e-4, 1e-3])
     assert bench["bench_forward"].parse_args(["--quick"]).repeats == 3
     distance = bench["bench_warm_distance"].parse_args([])
     assert (distance.level, distance.points, distance.chains) == ("ultra-thin", 3, [3, 6])
@@ -145,3 +147,23 @@ def test_warm_distance_directions_keep_the_cap_valid():
     for bad in (["--points", "0"], ["--steps", "0.01,,0.02"], ["--chains", "1"], ["--smoothing", "0"]):
         with pytest.raises(SystemExit):
             distance.parse_args(bad)
+
+
+def test_newton_floor_variants_differ_from_the_default_only_where_named():
+    """``exact`` only drops the chord steps; ``exact δ=…`` also raises δ (no δ phase: the ramp runs at
+    max(δ, smoothing_start)); a δ at or below the spec's is refused (it would be no bound)."""
+    import dataclasses
+    from breastcore.forward.options import SolverOptions
+    from breastcore.model.parameters import Parameters
+    floor = load(ROOT / "benchmarks" / "bench_newton_floor.py")
+    cases = floor.variants([1e-3])
+    assert list(cases) == ["default", "exact", "exact δ=0.001"]
+    assert cases["default"] == (SolverOptions(), Parameters())
+    assert cases["exact"] == (dataclasses.replace(SolverOptions(), reuse_factor=0.0), Parameters())
+    options, params = cases["exact δ=0.001"]
+    assert options == dataclasses.replace(SolverOptions(), reuse_factor=0.0)
+    assert options.smoothing_start <= Parameters().smoothing < 1e-3
+    assert params == dataclasses.replace(Parameters(), smoothing=1e-3)
+    for bad in ("1e-6", "1e-7", "1e-3,1e-6"):
+        with pytest.raises(SystemExit):
+            floor.parse_args(["--deltas", bad])
