@@ -37,10 +37,12 @@ def make_flags(target):
 
 
 def test_make_bench_runs_every_script_in_its_quick_mode():
-    assert {s.stem for s in SCRIPTS} == {"bench_cold_factorisations", "bench_cold_variants", "bench_delta_newton",
+    assert {s.stem for s in SCRIPTS} == {"bench_cold_factorisations", "bench_cold_variants",
+                                         "bench_delta_newton",
                                          "bench_factorization", "bench_forward", "bench_identify",
                                          "bench_inertia", "bench_iterative_solver", "bench_kernels",
-                                         "bench_newton_floor", "bench_problem_builds", "bench_projection", "bench_solver_option",
+                                         "bench_newton_floor", "bench_problem_builds", "bench_projection",
+                                         "bench_solver_option",
                                          "bench_table1_variants",
                                          "bench_warm_distance", "bench_warm_radius"}
     run = MAKEFILE.split("BENCH_RUN =")[1].split("\n\n")[0]
@@ -150,20 +152,41 @@ def test_warm_distance_directions_keep_the_cap_valid():
 
 
 def test_newton_floor_variants_differ_from_the_default_only_where_named():
-    """``exact`` only drops the chord steps; ``exact δ=…`` also raises δ (no δ phase: the ramp runs at
-    max(δ, smoothing_start)); a δ at or below the spec's is refused (it would be no bound)."""
+    """``exact`` only drops the chord steps; ``default δ=…`` only raises δ; ``Newton δ=…`` also drops
+    the chord steps, the primal-dual blocks and the releases. No δ phase: the ramp runs at
+    max(δ, smoothing_start). A δ at or below the spec's is refused (it would smooth nothing)."""
     import dataclasses
     from breastcore.forward.options import SolverOptions
     from breastcore.model.parameters import Parameters
     floor = load(ROOT / "benchmarks" / "bench_newton_floor.py")
     cases = floor.variants([1e-3])
-    assert list(cases) == ["default", "exact", "exact δ=0.001"]
+    assert list(cases) == ["default", "exact", "default δ=0.001", "Newton δ=0.001"]
+    raised = dataclasses.replace(Parameters(), smoothing=1e-3)
     assert cases["default"] == (SolverOptions(), Parameters())
     assert cases["exact"] == (dataclasses.replace(SolverOptions(), reuse_factor=0.0), Parameters())
-    options, params = cases["exact δ=0.001"]
-    assert options == dataclasses.replace(SolverOptions(), reuse_factor=0.0)
-    assert options.smoothing_start <= Parameters().smoothing < 1e-3
-    assert params == dataclasses.replace(Parameters(), smoothing=1e-3)
+    assert cases["default δ=0.001"] == (SolverOptions(), raised)
+    plain = dataclasses.replace(SolverOptions(), reuse_factor=0.0, sliding_dual=False, sliding_release=False)
+    assert cases["Newton δ=0.001"] == (plain, raised)
+    assert SolverOptions().smoothing_start <= Parameters().smoothing < 1e-3
     for bad in ("1e-6", "1e-7", "1e-3,1e-6"):
         with pytest.raises(SystemExit):
             floor.parse_args(["--deltas", bad])
+
+
+def test_newton_floor_counts_every_numeric_factorisation_and_restores_pardiso():
+    """Fresh factorisations at every Newton step, plus the inertia check at the solution: at least one
+    more than the iterations; the counter is PARDISO's own, and leaving it puts PARDISO back."""
+    from breastcore.linalg import pardiso
+    from breastcore.model.mesh import mesh_level
+    from breastcore.model.postures import paper_postures
+    if not pardiso.available():
+        pytest.skip("the counts are PARDISO's")
+    floor = load(ROOT / "benchmarks" / "bench_newton_floor.py")
+    options, params = floor.variants([1e-3])["Newton δ=0.001"]
+    original = pardiso._Pardiso.factorize
+    with floor._Counter() as counter:
+        _, iterations, count, deepest, solution = floor.counted_solve(mesh_level("coarse"), options, params,
+                                                                      paper_postures()[2], counter)
+    assert pardiso._Pardiso.factorize is original
+    assert solution.iterations == iterations > 0 and count >= iterations + 1 and deepest >= 0
+    assert floor._spread([3, 3]) == "3" and floor._spread([4, 3, 5]) == "3-5"
