@@ -95,3 +95,21 @@ def run_python(code: str, timeout: float | None = None, env: dict | None = None)
 
 def verdict(ok: bool) -> str:
     return "PASS" if ok else "MISS"
+
+
+def add_cold_solve_arguments(parser):
+    """The flags of the cold-solve comparisons (``bench_solver_option``, ``bench_newton_floor``):
+    ``--levels``, ``--repeats``, ``--postures`` and ``--quick``; :func:`cold_solve_defaults` fills them."""
+    parser.add_argument("--levels", default=None, help="comma-separated (default ultra-thin,reference,fine10k; "
+                                                       "--quick: coarse,medium)")
+    parser.add_argument("--repeats", type=int, default=None, help="solves per median (default 3; --quick: 1)")
+    parser.add_argument("--postures", default="standing,bent45,fours", help="paper postures (default all three)")
+    parser.add_argument("--quick", action="store_true", help="coarse and medium, one repeat (make bench)")
+
+
+def cold_solve_defaults(args):
+    """``args`` of :func:`add_cold_solve_arguments` with its lists split and the defaults filled in."""
+    args.levels = (args.levels or ("coarse,medium" if args.quick else "ultra-thin,reference,fine10k")).split(",")
+    args.repeats = args.repeats or (1 if args.quick else 3)
+    args.postures = args.postures.split(",")
+    return args

@@ -42,7 +42,7 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from benchmarks._common import header, print_table  # noqa: E402
+from benchmarks._common import add_cold_solve_arguments, cold_solve_defaults, header, print_table  # noqa: E402
 from benchmarks.bench_cold_factorisations import factorisation_seconds  # noqa: E402
 from breastcore.linalg import pardiso  # noqa: E402
 from breastcore.forward.model import ForwardModel  # noqa: E402
@@ -113,16 +113,9 @@ def _counts(values):
 
 def parse_args(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    parser.add_argument("--levels", default=None, help="comma-separated (default ultra-thin,reference,fine10k; "
-                                                       "--quick: coarse,medium)")
-    parser.add_argument("--repeats", type=int, default=None, help="solves per median (default 3; --quick: 1)")
-    parser.add_argument("--postures", default="standing,bent45,fours", help="paper postures (default all three)")
+    add_cold_solve_arguments(parser)
     parser.add_argument("--deltas", default="1e-4,1e-3", help="raised smoothing lengths δ, m (default 1e-4,1e-3)")
-    parser.add_argument("--quick", action="store_true", help="coarse and medium, one repeat (make bench)")
-    args = parser.parse_args(argv)
-    args.levels = (args.levels or ("coarse,medium" if args.quick else "ultra-thin,reference,fine10k")).split(",")
-    args.repeats = args.repeats or (1 if args.quick else 3)
-    args.postures = args.postures.split(",")
+    args = cold_solve_defaults(parser.parse_args(argv))
     args.deltas = [float(d) for d in args.deltas.split(",")]
     if not all(d > Parameters().smoothing for d in args.deltas):
         parser.error(f"--deltas must exceed the spec's δ = {Parameters().smoothing:g} m")

@@ -34,7 +34,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from benchmarks._common import header, print_table  # noqa: E402
+from benchmarks._common import add_cold_solve_arguments, cold_solve_defaults, header, print_table  # noqa: E402
 import breastcore.linalg.factorization as factorization  # noqa: E402
 from breastcore.forward.model import ForwardModel  # noqa: E402
 from breastcore.forward.options import SolverOptions  # noqa: E402
@@ -74,19 +74,12 @@ def counted_solve(mesh, options, params, posture):
 def parse_args(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--option", default="sliding_release", help="the SolverOptions field (default sliding_release)")
-    parser.add_argument("--levels", default=None, help="comma-separated (default ultra-thin,reference,fine10k; "
-                                                       "--quick: coarse,medium)")
-    parser.add_argument("--repeats", type=int, default=None, help="solves per median (default 3; --quick: 1)")
+    add_cold_solve_arguments(parser)
     parser.add_argument("--factors", default="1,1,1,1,1,1", help="Λ = Λ̄ × these six factors (default Λ̄)")
-    parser.add_argument("--postures", default="standing,bent45,fours", help="paper postures (default all three)")
-    parser.add_argument("--quick", action="store_true", help="coarse and medium, one repeat (make bench)")
-    args = parser.parse_args(argv)
-    args.levels = (args.levels or ("coarse,medium" if args.quick else "ultra-thin,reference,fine10k")).split(",")
-    args.repeats = args.repeats or (1 if args.quick else 3)
+    args = cold_solve_defaults(parser.parse_args(argv))
     args.factors = np.array([float(f) for f in args.factors.split(",")])
     if args.factors.shape != (6,):
         parser.error("--factors takes six comma-separated numbers")
-    args.postures = args.postures.split(",")
     return args
 
 
