@@ -28,7 +28,8 @@ repeats differ), the largest count of negative pivots among them (PARDISO's iner
 indefinite phase; the steps that ``deep_indefinite_skips`` take without an exact factorisation are
 not seen), the negative eigenvalues at the solution, and the **factorisation-equivalents**: time /
 one factorisation of the exact Hessian at the default's solution, in the same process (issue #21 asks
-for ≤ 10 on ultra-thin). Without PARDISO the counts are "—".
+for ≤ 10 on ultra-thin). Without PARDISO the counts are "—". A last table fits ``time ∝ N^p`` (N nodes,
+least squares over the levels given) per posture and solver, and for the one factorisation.
 """
 
 from __future__ import annotations
@@ -42,7 +43,8 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from benchmarks._common import add_cold_solve_arguments, cold_solve_defaults, header, print_table  # noqa: E402
+from benchmarks._common import (add_cold_solve_arguments, cold_solve_defaults, fit_exponent, header,  # noqa: E402
+                               print_table)
 from benchmarks.bench_cold_factorisations import factorisation_seconds  # noqa: E402
 from breastcore.linalg import pardiso  # noqa: E402
 from breastcore.forward.model import ForwardModel  # noqa: E402
@@ -126,7 +128,7 @@ def main(argv=None):
     args = parse_args(argv)
     header("bench_newton_floor", [sys.argv[0]] + (argv if argv is not None else sys.argv[1:]))
     cases = variants(args.deltas)
-    rows = []
+    rows, growth = [], {}          # (posture, solver) → ([nodes], [seconds]); solver None: one factorisation
     ForwardModel(mesh_level("coarse")).solve(Parameters(), paper_postures()[0])     # compile the kernels first
     with _Counter() as counter:
         for level in args.levels:
@@ -138,8 +140,10 @@ def main(argv=None):
                         runs[name].append(counted_solve(mesh, options, params, posture, counter))
                 factor = factorisation_seconds(ForwardModel(mesh), Parameters(), posture,
                                                runs["default"][0][4].position)
+                _grow(growth, (posture.name, None), len(mesh.nodes), factor)
                 for name, solves in runs.items():
                     seconds = statistics.median(s[0] for s in solves)
+                    _grow(growth, (posture.name, name), len(mesh.nodes), seconds)
                     rows.append([level, str(len(mesh.nodes)), posture.name, name, f"{seconds:.3f}",
                                  _spread([s[1] for s in solves]), _counts([s[2] for s in solves]),
                                  _counts([s[3] for s in solves]), str(solves[0][4].negative_eigenvalues),
@@ -148,7 +152,19 @@ def main(argv=None):
                  "largest negative-pivot count", "negative eigenvalues at the solution",
                  "factorisation-equivalents", "one factorisation (ms)"], rows,
                 title=f"Cold solves at Λ̄, median of {args.repeats}, the variants alternated")
+    if len(args.levels) > 1:
+        print_table(["posture", "solver", "levels", "p in time ∝ N^p"],
+                    [[posture, solver or "one factorisation", f"{args.levels[0]} … {args.levels[-1]}",
+                      f"{fit_exponent(n, t):.2f}"] for (posture, solver), (n, t) in growth.items()],
+                    title="Growth with the node count (least squares over the levels)")
     return 0
+
+
+def _grow(growth, key, nodes, seconds):
+    """Add one level's ``(nodes, seconds)`` to ``growth[key]``."""
+    n, t = growth.setdefault(key, ([], []))
+    n.append(nodes)
+    t.append(seconds)
 
 
 if __name__ == "__main__":

@@ -190,5 +190,5 @@ def test_postures_in_two_processes_on_a_two_thread_pardiso_match_one_process():
     """)
     code, out, err = run_script(script, dict(os.environ, **{pardiso.PARDISO_THREADS_ENV: "2"}), timeout=60)
     assert code == 0, err
-    assert float(out.split()[-1]) <= 1e-8                  # the solve tolerance's order: a 2-thread
-                                                                  # factor rounds differently from a 1-thread one
+    # the solve tolerance's order: a 2-thread factor rounds differently from a 1-thread one
+    assert float(out.split()[-1]) <= 1e-8

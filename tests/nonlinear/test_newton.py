@@ -231,7 +231,7 @@ def test_shifts_are_futile_above_the_pivot_cap_or_where_they_failed_with_as_many
     assert not shifts_futile(MAX_SHIFT_PIVOTS, None)
     assert shifts_futile(MAX_SHIFT_PIVOTS + 1, None)
     assert shifts_futile(3, failed_at=3) and shifts_futile(4, failed_at=3)
-    assert not shifts_futile(2, failed_at=3)                      # fewer negative pivots: worth a try again
+    assert not shifts_futile(2, failed_at=3)                       # fewer negative pivots: worth a try again
 
 
 @pytest.mark.skipif(not pardiso.available(), reason="the shifts need PARDISO's inertia")
