@@ -41,7 +41,7 @@ def test_make_bench_runs_every_script_in_its_quick_mode():
                                          "bench_delta_newton",
                                          "bench_factorization", "bench_forward", "bench_identify",
                                          "bench_inertia", "bench_iterative_solver", "bench_kernels",
-                                         "bench_newton_floor", "bench_problem_builds", "bench_projection",
+                                         "bench_newton_floor", "bench_problem_builds", "bench_projection", "bench_relaxed_skin",
                                          "bench_solver_option",
                                          "bench_table1_variants",
                                          "bench_warm_distance", "bench_warm_radius"}

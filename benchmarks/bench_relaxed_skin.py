@@ -1,0 +1,117 @@
+"""What would a skin that wrinkles instead of buckling cost and change? A study for issue #21.
+
+Usage::
+
+    python benchmarks/bench_relaxed_skin.py [--levels ultra-thin,reference,fine10k] [--repeats 3]
+                                            [--postures standing,bent45,fours]
+    python benchmarks/bench_relaxed_skin.py --quick     # coarse and medium, one repeat
+
+Per level and paper posture, cold solves at the paper's Λ̄ with the default solver (as
+``bench_newton_floor``), two models alternated:
+
+- ``spec``: the spec's neo-Hookean skin membrane, which resists compression;
+- ``relaxed``: its tension-field relaxation (:mod:`benchmarks._relaxed_skin`, numpy kernels), in
+  which a compressed direction wrinkles at no energy. **Another model**, not the spec's.
+
+Printed per solve: the median time, Newton iterations, PARDISO's numeric factorisations and their
+largest negative-pivot count (counted at the handle: ``bench_newton_floor._Counter``), the
+factorisation-equivalents (time / one factorisation of the spec model's exact Hessian at its
+solution), and, at each model's equilibrium, the share of skin triangles that the relaxed energy
+calls wrinkled or slack. A second table gives, per posture, what the relaxation changes: the
+largest relative change of the five measurements (and which), and the largest node distance
+between the two equilibria. The relaxed kernels are numpy, not compiled, so on small meshes the
+time ratio understates the relaxed model; the factorisation counts compare the paths.
+"""
+
+from __future__ import annotations
+
+import argparse
+import statistics
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+
+from benchmarks._common import add_cold_solve_arguments, cold_solve_defaults, header, print_table  # noqa: E402
+from benchmarks._relaxed_skin import RelaxedSkinMembrane, RelaxedSkinModel  # noqa: E402
+from benchmarks.bench_cold_factorisations import factorisation_seconds  # noqa: E402
+from benchmarks.bench_newton_floor import _Counter, _counts, _spread  # noqa: E402
+from breastcore.forward.model import ForwardModel  # noqa: E402
+from breastcore.inverse.measurements import QUANTITIES, measure  # noqa: E402
+from breastcore.model.mesh import mesh_level  # noqa: E402
+from breastcore.model.parameters import Parameters  # noqa: E402
+from breastcore.model.postures import paper_postures  # noqa: E402
+
+MODELS = {"spec": ForwardModel, "relaxed": RelaxedSkinModel}
+
+
+def counted_solve(model_class, mesh, params, posture, counter):
+    """``(seconds, iterations, factorisations, largest negative-pivot count, solution)`` of one cold solve."""
+    counter.reset()
+    start = time.perf_counter()
+    solution = model_class(mesh).solve(params, posture)
+    return time.perf_counter() - start, solution.iterations, counter.count, counter.deepest, solution
+
+
+def skin_state_shares(mesh, params, posture, position):
+    """``(wrinkled, slack)`` shares of the skin triangles at ``position``, as the relaxed energy sees them."""
+    problem = RelaxedSkinModel(mesh).problem(params, posture)
+    skin = next(t for t in problem.energy.terms if isinstance(t, RelaxedSkinMembrane))
+    states = skin.states(position)
+    return float(np.mean(states == 1)), float(np.mean(states == 0))
+
+
+def measurement_change(mesh, spec, relaxed):
+    """``(largest |M_relaxed / M_spec − 1|, its quantity)`` over the five measurements of one posture."""
+    a, b = measure(mesh, spec.position), measure(mesh, relaxed.position)
+    changes = {q: abs(b[q] / a[q] - 1) for q in QUANTITIES}
+    worst = max(changes, key=changes.get)
+    return changes[worst], worst
+
+
+def parse_args(argv=None):
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    add_cold_solve_arguments(parser)
+    return cold_solve_defaults(parser.parse_args(argv))
+
+
+def main(argv=None):
+    args = parse_args(argv)
+    header("bench_relaxed_skin", [sys.argv[0]] + (argv if argv is not None else sys.argv[1:]))
+    params = Parameters()
+    ForwardModel(mesh_level("coarse")).solve(params, paper_postures()[0])     # compile the kernels first
+    rows, changes = [], []
+    with _Counter() as counter:
+        for level in args.levels:
+            mesh = mesh_level(level)
+            for posture in (p for p in paper_postures() if p.name in args.postures):
+                runs = {name: [] for name in MODELS}
+                for _ in range(args.repeats):                         # alternated: drift hits both alike
+                    for name, model_class in MODELS.items():
+                        runs[name].append(counted_solve(model_class, mesh, params, posture, counter))
+                factor = factorisation_seconds(ForwardModel(mesh), params, posture, runs["spec"][0][4].position)
+                for name, solves in runs.items():
+                    seconds = statistics.median(s[0] for s in solves)
+                    wrinkled, slack = skin_state_shares(mesh, params, posture, solves[0][4].position)
+                    rows.append([level, str(len(mesh.nodes)), posture.name, name, f"{seconds:.3f}",
+                                 _spread([s[1] for s in solves]), _counts([s[2] for s in solves]),
+                                 _counts([s[3] for s in solves]), str(solves[0][4].negative_eigenvalues),
+                                 f"{seconds / factor:.1f}", f"{100 * wrinkled:.1f}", f"{100 * slack:.1f}"])
+                spec, relaxed = runs["spec"][0][4], runs["relaxed"][0][4]
+                change, quantity = measurement_change(mesh, spec, relaxed)
+                distance = np.linalg.norm(spec.position - relaxed.position, axis=1).max()
+                changes.append([level, posture.name, f"{100 * change:.2f}", quantity, f"{1e3 * distance:.2f}"])
+    print_table(["level", "nodes", "posture", "skin", "time (s)", "Newton iterations", "factorisations",
+                 "largest negative-pivot count", "negative eigenvalues at the solution",
+                 "factorisation-equivalents", "wrinkled (% of triangles)", "slack (%)"], rows,
+                title=f"Cold solves at Λ̄, median of {args.repeats}, the two skins alternated")
+    print_table(["level", "posture", "largest measurement change (%)", "quantity", "largest node distance (mm)"],
+                changes, title="What the relaxed skin changes at Λ̄ (relaxed against spec)")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
