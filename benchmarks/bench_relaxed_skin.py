@@ -3,7 +3,7 @@
 Usage::
 
     python benchmarks/bench_relaxed_skin.py [--levels ultra-thin,reference,fine10k] [--repeats 3]
-                                            [--postures standing,bent45,fours]
+                                            [--postures standing,bent45,fours] [--paths]
     python benchmarks/bench_relaxed_skin.py --quick     # coarse and medium, one repeat
 
 Per level and paper posture, cold solves at the paper's Λ̄ with the default solver (as
@@ -21,6 +21,14 @@ calls wrinkled or slack. A second table gives, per posture, what the relaxation 
 largest relative change of the five measurements (and which), and the largest node distance
 between the two equilibria. The relaxed kernels are numpy, not compiled, so on small meshes the
 time ratio understates the relaxed model; the factorisation counts compare the paths.
+
+A third table (``--paths``, on the first level) asks whether each skin's equilibrium depends on the
+path: at five points (Λ̄ and four uniform draws within ±40 %, seed 0, as ``bench_cold_variants``) each
+posture is solved cold with the default solver, then along other paths: cold with the solver settings
+before issue #21 (``bench_cold_variants.BEFORE``), cold with the gravity ramp at δ = 1e-3 m, and from
+each other posture's equilibrium. Printed: how many of these end more than 1 µm (largest node
+distance) from the default's equilibrium, the largest such distance, and the lowest energy
+difference (J; negative where the other path found a lower minimum).
 """
 
 from __future__ import annotations
@@ -75,7 +83,49 @@ def measurement_change(mesh, spec, relaxed):
 def parse_args(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     add_cold_solve_arguments(parser)
+    parser.add_argument("--paths", action="store_true", help="also the path-independence table (first level)")
     return cold_solve_defaults(parser.parse_args(argv))
+
+
+#: Another equilibrium: the largest node distance from the default path's, m.
+OTHER_EQUILIBRIUM = 1e-6
+
+
+def path_variants():
+    """``{name: SolverOptions}`` of the cold paths compared with the default's."""
+    import dataclasses
+    from benchmarks.bench_cold_variants import BEFORE
+    from breastcore.forward.options import SolverOptions
+    before = dataclasses.replace(SolverOptions(), **BEFORE)
+    return {"before-21": before, "ramp at δ = 1e-3 m": dataclasses.replace(before, smoothing_start=1e-3)}
+
+
+def path_rows(mesh):
+    """Rows of the path-independence table on ``mesh``: per skin and posture, other paths' outcomes."""
+    base = Parameters()
+    truth = np.array(base.identified())
+    rng = np.random.default_rng(0)
+    points = [truth] + [truth * (1 + rng.uniform(-0.4, 0.4, 6)) for _ in range(4)]
+    rows = []
+    for name, model_class in MODELS.items():
+        default = model_class(mesh)
+        others = {label: model_class(mesh, options) for label, options in path_variants().items()}
+        outcomes = {p.name: [] for p in paper_postures()}          # (distance m, ΔE J) per other path
+        for values in points:
+            params = base.with_identified(values)
+            solved = {p.name: default.solve(params, p) for p in paper_postures()}
+            for posture in paper_postures():
+                reference = solved[posture.name]
+                paths = [model.solve(params, posture) for model in others.values()]
+                paths += [default.solve(params, posture, solved[other].position)
+                          for other in solved if other != posture.name]
+                outcomes[posture.name] += [(np.linalg.norm(s.position - reference.position, axis=1).max(),
+                                            s.energy - reference.energy) for s in paths]
+        for posture, found in outcomes.items():
+            elsewhere = [(d, e) for d, e in found if d > OTHER_EQUILIBRIUM]
+            rows.append([name, posture, f"{len(elsewhere)} of {len(found)}",
+                         f"{1e3 * max(d for d, _ in found):.3g}", f"{min(e for _, e in found):.2e}"])
+    return rows
 
 
 def main(argv=None):
@@ -110,6 +160,11 @@ def main(argv=None):
                 title=f"Cold solves at Λ̄, median of {args.repeats}, the two skins alternated")
     print_table(["level", "posture", "largest measurement change (%)", "quantity", "largest node distance (mm)"],
                 changes, title="What the relaxed skin changes at Λ̄ (relaxed against spec)")
+    if args.paths:
+        print_table(["skin", "posture", "paths ending elsewhere (> 1 µm)", "largest distance (mm)",
+                     "lowest ΔE (J)"], path_rows(mesh_level(args.levels[0])),
+                    title=f"Does the equilibrium depend on the path? {args.levels[0]}, five points, "
+                          f"other cold paths and starts from the other postures")
     return 0
 
 

@@ -190,3 +190,17 @@ def test_newton_floor_counts_every_numeric_factorisation_and_restores_pardiso():
     assert pardiso._Pardiso.factorize is original
     assert solution.iterations == iterations > 0 and count >= iterations + 1 and deepest >= 0
     assert floor._spread([3, 3]) == "3" and floor._spread([4, 3, 5]) == "3-5"
+
+
+def test_relaxed_skin_paths_differ_from_the_default_only_as_named():
+    """The other cold paths of ``--paths``: the settings before #21, and those with the ramp at δ = 1e-3 m."""
+    import dataclasses
+    from breastcore.forward.options import SolverOptions
+    study = load(ROOT / "benchmarks" / "bench_relaxed_skin.py")
+    variants = load(ROOT / "benchmarks" / "bench_cold_variants.py")
+    paths = study.path_variants()
+    before = dataclasses.replace(SolverOptions(), **variants.BEFORE)
+    assert paths == {"before-21": before, "ramp at δ = 1e-3 m": dataclasses.replace(before, smoothing_start=1e-3)}
+    assert before != SolverOptions() and before.smoothing_start != 1e-3
+    assert study.parse_args(["--paths"]).paths and not study.parse_args([]).paths
+    assert list(study.MODELS) == ["spec", "relaxed"]
