@@ -30,6 +30,12 @@ i.e. with ``y = √n``: ``μ(y² − 1) + λ(a y² − √a y) = 0``. The relaxe
 continuous with its first derivatives across the states. Wrinkled, ``W̃' = W_a`` (as ``W_b = 0``) and
 ``W̃'' = W_aa − W_ab² / W_bb`` at ``(a, n(a))``, and the chain to the invariants uses
 ``a_I = (1 + I₁/s)/2``, ``a_q = −1/s``, ``a_II = −2q/s³``, ``a_Iq = I₁/s³``, ``a_qq = −2/s³``.
+Where the three states meet, ``a = b = 1`` (the gravity-free shape), the relaxed energy is not twice
+differentiable and ``s → 0``: triangles within :data:`TRIPLE_POINT` of it count as taut, which
+changes the energy there by ``O(μ TRIPLE_POINT²)`` and keeps every wrinkled triangle at
+``s > TRIPLE_POINT``. The invariant form still loses accuracy as ``ε/s²`` (ε the machine epsilon):
+wrinkled blocks are positive semidefinite to about 2e-7 of their largest eigenvalue at strains of
+1e-4, and to 3e-9 at 1e-3 (``tests/test_relaxed_skin.py``).
 """
 
 from __future__ import annotations
@@ -44,10 +50,30 @@ from breastcore.fem.element_ops import _edges_to_nodes, project_psd
 from breastcore.fem.skin import SkinMembrane
 from breastcore.forward.model import ForwardModel
 
-def natural_width(a, lam, mu):
-    """``n(a)``, the squared transverse stretch at which a strip stretched by ``a > 1`` is free of
-    transverse stress (``∂W/∂b = 0``); ``(n,)`` for ``(n,)`` ``a``.
+#: Triangles with both squared stretches within this of 1 count as taut: near ``a = b = 1``, where
+#: the three states meet, round-off would decide the state (the gravity-free shape is there), and
+#: the invariant form of the wrinkled Hessian loses accuracy as ε/s² (module Notes).
+TRIPLE_POINT = 1e-4
 
+
+def natural_width(a, lam, mu):
+    """The natural width ``n(a)``: the squared transverse stretch at which a strip stretched by ``a``
+    is free of transverse stress (``∂W/∂b = 0``).
+
+    Parameters
+    ----------
+    a : (n,) array
+        Squared stretch along the strip, ``a ≥ 1``.
+    lam, mu : float
+        Membrane Lamé moduli (N m⁻¹).
+
+    Returns
+    -------
+    (n,) array
+        ``n(a) ∈ (0, 1]``, with ``n(1) = 1``.
+
+    Notes
+    -----
     With ``y = √n``, ``2b ∂W/∂b = μ(y² − 1) + λ(a y² − √a y) = 0``: the positive root of
     ``(μ + λa) y² − λ√a y − μ = 0``.
     """
@@ -69,33 +95,70 @@ def _principal_derivatives(a, b, lam, mu):
     return W, W_a, W_b, W_aa, W_ab, W_bb
 
 
-def skin_states(I1, q, lam, mu):
-    """``0`` slack, ``1`` wrinkled, ``2`` taut, per triangle, and the principal ``a ≥ b``, natural width ``n``."""
-    s = np.sqrt(np.maximum(I1 * I1 - 4 * q, 0.0))
+def principal_gap(G_inv, g):
+    """``s = a − b ≥ 0``, the gap between the squared principal stretches, ``(n,)``.
+
+    The eigenvalues of ``M = G⁻¹ g`` (``(n, 2, 2)`` each) differ by ``√((M₁₁ − M₂₂)² + 4 M₁₂ M₂₁)``;
+    computed so, not as ``√(I₁² − 4q)``, ``s`` keeps its relative accuracy as ``a → b`` (the latter
+    turns a round-off of 1e-16 into ``s ≈ 1e-8`` at the gravity-free shape).
+    """
+    M = np.einsum("nab,nbc->nac", G_inv, g)
+    return np.sqrt(np.maximum((M[:, 0, 0] - M[:, 1, 1]) ** 2 + 4 * M[:, 0, 1] * M[:, 1, 0], 0.0))
+
+
+def skin_states(I1, s, lam, mu):
+    """The state of each triangle and its principal values.
+
+    Parameters
+    ----------
+    I1, s : (n,) arrays
+        ``tr(G⁻¹ g) = a + b`` and :func:`principal_gap` ``a − b``.
+    lam, mu : float
+        Membrane Lamé moduli (N m⁻¹).
+
+    Returns
+    -------
+    state : (n,) int array
+        0 slack (``a ≤ 1``), 1 wrinkled (``a > 1``, ``b < n(a)``), 2 taut (otherwise, and within
+        :data:`TRIPLE_POINT` of ``a = b = 1``). A wrinkled triangle has ``s > TRIPLE_POINT``.
+    a, b, n : (n,) arrays
+        Squared principal stretches ``a ≥ b`` and the natural width ``n(a)`` (1 where ``a ≤ 1``).
+    """
     a, b = 0.5 * (I1 + s), 0.5 * (I1 - s)
     n = np.ones_like(a)
     stretched = a > 1
     n[stretched] = natural_width(a[stretched], lam, mu)
     state = np.where(a <= 1, 0, np.where(b < n, 1, 2))
+    state[(np.abs(a - 1) <= TRIPLE_POINT) & (np.abs(b - 1) <= TRIPLE_POINT)] = 2
     return state, a, b, n
 
 
-def relaxed_membrane(I1, D, det_G, lam, mu):
+def relaxed_membrane(I1, D, s, det_G, lam, mu):
     """The relaxed energy per reference area and its invariant derivatives.
 
-    Returns ``W, W_I, W_D, W_II, W_ID, W_DD``, each ``(n,)`` (J m⁻², and per unit of ``I₁`` and
-    ``D = det g``), and the states of :func:`skin_states`.
+    Parameters
+    ----------
+    I1, D, s, det_G : (n,) arrays
+        ``tr(G⁻¹ g)``, ``det g`` (m⁴), :func:`principal_gap` and ``det G`` (m⁴) per triangle.
+    lam, mu : float
+        Membrane Lamé moduli (N m⁻¹).
+
+    Returns
+    -------
+    derivatives : tuple of six (n,) arrays
+        ``W, W_I, W_D, W_II, W_ID, W_DD``: J m⁻², and per unit of ``I₁`` and ``D``.
+    state : (n,) int array
+        :func:`skin_states`.
     """
     q = D / det_G
-    state, a, b, n = skin_states(I1, q, lam, mu)
+    state, a, b, n = skin_states(I1, s, lam, mu)
     W, W_D, W_DD = kernels.membrane_neo_hookean(I1, D, det_G, lam, mu)
     W_I, W_II, W_ID = np.full_like(W, 0.5 * mu), np.zeros_like(W), np.zeros_like(W)
     slack, wrinkled = state == 0, state == 1
     for array in (W, W_I, W_D, W_II, W_ID, W_DD):
         array[slack] = 0.0
     if np.any(wrinkled):
-        aw, nw, Iw, qw = a[wrinkled], n[wrinkled], I1[wrinkled], q[wrinkled]
-        s = np.sqrt(np.maximum(Iw * Iw - 4 * qw, 0.0))
+        aw, nw, Iw, qw, s = a[wrinkled], n[wrinkled], I1[wrinkled], q[wrinkled], s[wrinkled]
         Wt, Wt1, _, W_aa, W_ab, W_bb = _principal_derivatives(aw, nw, lam, mu)
         Wt2 = W_aa - W_ab ** 2 / W_bb
         a_I, a_q = 0.5 * (1 + Iw / s), -1 / s
@@ -112,7 +175,12 @@ def relaxed_membrane(I1, D, det_G, lam, mu):
 
 class RelaxedSkinMembrane(SkinMembrane):
     """:class:`~breastcore.fem.skin.SkinMembrane` with the relaxed energy :func:`relaxed_membrane`
-    (numpy, no compiled loops: a study, not the product)."""
+    (numpy, no compiled loops: a study, not the product). Arrays and units as the parent's.
+
+    Its gradient refuses a zero modulus: :func:`breastcore.fem.terms.modulus_gradient` (the implicit
+    Jacobian's derivative in a skin modulus) sets one to zero, which is valid only for an energy
+    linear in each modulus, and would otherwise give a wrong Jacobian without a word.
+    """
 
     @classmethod
     def relaxing(cls, skin: SkinMembrane) -> "RelaxedSkinMembrane":
@@ -121,9 +189,16 @@ class RelaxedSkinMembrane(SkinMembrane):
         term.__class__ = cls
         return term
 
-    def _invariant_derivatives(self, x):
+    def _kinematics(self, x):
+        """Edges ``(S, 2, 3)``, Gram matrices ``(S, 2, 2)``, ``D``, ``I₁`` and :func:`principal_gap`."""
         e, g, D, I1 = self._edges(x)
-        derivatives, _ = relaxed_membrane(I1, D, self.det_G, self.lam, self.mu)
+        return e, g, D, I1, principal_gap(self.G_inv, g)
+
+    def _invariant_derivatives(self, x):
+        if self.lam == 0 or self.mu == 0:
+            raise ValueError("the relaxed skin is not linear in each modulus: modulus_gradient does not apply")
+        e, g, D, I1, s = self._kinematics(x)
+        derivatives, _ = relaxed_membrane(I1, D, s, self.det_G, self.lam, self.mu)
         dD = 2.0 * np.stack([g[:, 1, 1, None] * e[:, 0] - g[:, 0, 1, None] * e[:, 1],
                              g[:, 0, 0, None] * e[:, 1] - g[:, 0, 1, None] * e[:, 0]], axis=1)
         dI = 2.0 * np.einsum("nab,nbi->nai", self.G_inv, e)
@@ -131,28 +206,37 @@ class RelaxedSkinMembrane(SkinMembrane):
 
     def states(self, x):
         """Per triangle: 0 slack, 1 wrinkled, 2 taut (:func:`skin_states`)."""
-        _, _, D, I1 = self._edges(x)
-        return skin_states(I1, D / self.det_G, self.lam, self.mu)[0]
+        _, _, _, I1, s = self._kinematics(x)
+        return skin_states(I1, s, self.lam, self.mu)[0]
+
+    def element_energies(self, x):
+        """``|T| W̃`` per triangle ``(S,)``, J."""
+        _, _, D, I1, s = self._kinematics(x)
+        return self.area * relaxed_membrane(I1, D, s, self.det_G, self.lam, self.mu)[0][0]
 
     def value(self, x):
-        _, _, D, I1 = self._edges(x)
-        if not np.all(D / self.det_G > 1e-12):
+        """Energy in J, ``+inf`` if a triangle is degenerate (as the parent's)."""
+        if not self.admissible(x):
             return np.inf
-        return float(np.sum(self.area * relaxed_membrane(I1, D, self.det_G, self.lam, self.mu)[0][0]))
+        return float(np.sum(self.element_energies(x)))
 
     checked_value = value
 
     def element_gradients(self, x):
+        """Per-triangle nodal forces ``(S, 3, 3)``, N."""
         _, _, (_, W_I, W_D, *_), dI, dD = self._invariant_derivatives(x)
         dW = W_I[:, None, None] * dI + W_D[:, None, None] * dD
         return _edges_to_nodes(dW * self.area[:, None, None], 1)
 
     def gradient(self, x):
+        """Nodal forces ``(N, 3)``, N."""
         out = np.zeros(np.shape(x))
         np.add.at(out, self.connectivity, self.element_gradients(x))
         return out
 
     def element_hessians(self, x):
+        """Per-triangle Hessian blocks ``(S, 9, 9)``, N m⁻¹:
+        ``W_I ∂²I₁ + W_D ∂²D + W_II ∂I₁∂I₁ + W_ID (∂I₁∂D + ∂D∂I₁) + W_DD ∂D∂D``."""
         e, g, (_, W_I, W_D, W_II, W_ID, W_DD), dI, dD = self._invariant_derivatives(x)
         n, eye = len(e), np.eye(3)
         e1, e2, e12 = e[:, 0], e[:, 1], g[:, 0, 1]
@@ -172,12 +256,15 @@ class RelaxedSkinMembrane(SkinMembrane):
         return _edges_to_nodes(_edges_to_nodes(H, 1), 3).reshape(n, 9, 9)
 
     def scatter_hessian(self, data, positions, x):
+        """Add :meth:`element_hessians` into CSR ``data`` at ``positions``."""
         scatter_blocks(data, positions, np.ascontiguousarray(self.element_hessians(x)))
 
     def projected_element_hessians(self, x):
+        """:meth:`element_hessians` with each block's negative eigenvalues set to zero."""
         return project_psd(self.element_hessians(x))
 
     def scatter_projected_hessian(self, data, positions, x):
+        """Add :meth:`projected_element_hessians` into CSR ``data`` at ``positions``."""
         scatter_blocks(data, positions, np.ascontiguousarray(self.projected_element_hessians(x)))
 
 
@@ -185,5 +272,6 @@ class RelaxedSkinModel(ForwardModel):
     """A :class:`~breastcore.forward.model.ForwardModel` whose skin is a :class:`RelaxedSkinMembrane`."""
 
     def energy_terms(self, params, acceleration, smoothing):
+        """The parent's four terms, the skin relaxed."""
         bulk, skin, gravity, sliding = super().energy_terms(params, acceleration, smoothing)
         return bulk, RelaxedSkinMembrane.relaxing(skin), gravity, sliding

@@ -41,7 +41,8 @@ def test_make_bench_runs_every_script_in_its_quick_mode():
                                          "bench_delta_newton",
                                          "bench_factorization", "bench_forward", "bench_identify",
                                          "bench_inertia", "bench_iterative_solver", "bench_kernels",
-                                         "bench_newton_floor", "bench_problem_builds", "bench_projection", "bench_relaxed_skin",
+                                         "bench_newton_floor", "bench_problem_builds", "bench_projection",
+                                         "bench_relaxed_skin",
                                          "bench_solver_option",
                                          "bench_table1_variants",
                                          "bench_warm_distance", "bench_warm_radius"}
@@ -204,3 +205,16 @@ def test_relaxed_skin_paths_differ_from_the_default_only_as_named():
     assert before != SolverOptions() and before.smoothing_start != 1e-3
     assert study.parse_args(["--paths"]).paths and not study.parse_args([]).paths
     assert list(study.MODELS) == ["spec", "relaxed"]
+
+
+def test_relaxed_skin_path_table_has_a_row_per_skin_and_posture():
+    """``--paths`` on coarse: 5 points × 4 other paths per posture, counted per skin."""
+    from breastcore.model.mesh import mesh_level
+    study = load(ROOT / "benchmarks" / "bench_relaxed_skin.py")
+    rows = study.path_rows(mesh_level("coarse"))
+    assert [row[:2] for row in rows] == [[skin, posture] for skin in ("spec", "relaxed")
+                                         for posture in ("standing", "bent45", "fours")]
+    for row in rows:
+        elsewhere, total = row[2].split(" of ")
+        assert total == "20" and 0 <= int(elsewhere) <= 20
+        assert float(row[3]) >= 0 and (int(elsewhere) > 0) == (float(row[3]) > 1e-3)   # mm, against 1 µm
