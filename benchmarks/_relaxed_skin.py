@@ -31,11 +31,12 @@ continuous with its first derivatives across the states. Wrinkled, ``W̃' = W_a`
 ``W̃'' = W_aa − W_ab² / W_bb`` at ``(a, n(a))``, and the chain to the invariants uses
 ``a_I = (1 + I₁/s)/2``, ``a_q = −1/s``, ``a_II = −2q/s³``, ``a_Iq = I₁/s³``, ``a_qq = −2/s³``.
 Where the three states meet, ``a = b = 1`` (the gravity-free shape), the relaxed energy is not twice
-differentiable and ``s → 0``: triangles within :data:`TRIPLE_POINT` of it count as taut, which
-changes the energy there by ``O(μ TRIPLE_POINT²)`` and keeps every wrinkled triangle at
-``s > TRIPLE_POINT``. The invariant form still loses accuracy as ``ε/s²`` (ε the machine epsilon):
-wrinkled blocks are positive semidefinite to about 2e-7 of their largest eigenvalue at strains of
-1e-4, and to 3e-9 at 1e-3 (``tests/test_relaxed_skin.py``).
+differentiable and ``s → 0``. The energy and the forces are exact everywhere; the Hessian of a
+triangle within :data:`TRIPLE_POINT` of that point is the taut side's (the spec's), because there
+the invariant form's ``1/s³`` terms cancel into noise. Outside, every wrinkled triangle has
+``s > TRIPLE_POINT``, and the invariant form loses accuracy as ``ε/s²`` (ε the machine epsilon):
+on the tests' patch, wrinkled blocks are positive semidefinite to 2.2e-8 of their largest eigenvalue
+at strains of 1e-4, and to 4.2e-9 at 1e-3 (``tests/test_relaxed_skin.py``).
 """
 
 from __future__ import annotations
@@ -50,9 +51,9 @@ from breastcore.fem.element_ops import _edges_to_nodes, project_psd
 from breastcore.fem.skin import SkinMembrane
 from breastcore.forward.model import ForwardModel
 
-#: Triangles with both squared stretches within this of 1 count as taut: near ``a = b = 1``, where
-#: the three states meet, round-off would decide the state (the gravity-free shape is there), and
-#: the invariant form of the wrinkled Hessian loses accuracy as ε/s² (module Notes).
+#: A triangle with both squared stretches within this of 1 takes the taut side's Hessian: near
+#: ``a = b = 1``, where the three states meet (the gravity-free shape is there), round-off decides
+#: the state and the invariant form of the wrinkled Hessian loses accuracy as ε/s² (module Notes).
 TRIPLE_POINT = 1e-4
 
 
@@ -119,8 +120,7 @@ def skin_states(I1, s, lam, mu):
     Returns
     -------
     state : (n,) int array
-        0 slack (``a ≤ 1``), 1 wrinkled (``a > 1``, ``b < n(a)``), 2 taut (otherwise, and within
-        :data:`TRIPLE_POINT` of ``a = b = 1``). A wrinkled triangle has ``s > TRIPLE_POINT``.
+        0 slack (``a ≤ 1``), 1 wrinkled (``a > 1``, ``b < n(a)``), 2 taut (otherwise).
     a, b, n : (n,) arrays
         Squared principal stretches ``a ≥ b`` and the natural width ``n(a)`` (1 where ``a ≤ 1``).
     """
@@ -129,8 +129,13 @@ def skin_states(I1, s, lam, mu):
     stretched = a > 1
     n[stretched] = natural_width(a[stretched], lam, mu)
     state = np.where(a <= 1, 0, np.where(b < n, 1, 2))
-    state[(np.abs(a - 1) <= TRIPLE_POINT) & (np.abs(b - 1) <= TRIPLE_POINT)] = 2
     return state, a, b, n
+
+
+def near_triple_point(I1, s):
+    """``(n,)`` bool: both squared principal stretches within :data:`TRIPLE_POINT` of 1."""
+    a, b = 0.5 * (I1 + s), 0.5 * (I1 - s)
+    return (np.abs(a - 1) <= TRIPLE_POINT) & (np.abs(b - 1) <= TRIPLE_POINT)
 
 
 def relaxed_membrane(I1, D, s, det_G, lam, mu):
@@ -151,6 +156,9 @@ def relaxed_membrane(I1, D, s, det_G, lam, mu):
         :func:`skin_states`.
     """
     q = D / det_G
+    if lam == 0 and mu == 0:                          # the skin switched off
+        zero = np.zeros_like(I1)
+        return (zero, zero, zero, zero, zero, zero), np.full(I1.shape, 2)
     state, a, b, n = skin_states(I1, s, lam, mu)
     W, W_D, W_DD = kernels.membrane_neo_hookean(I1, D, det_G, lam, mu)
     W_I, W_II, W_ID = np.full_like(W, 0.5 * mu), np.zeros_like(W), np.zeros_like(W)
@@ -177,9 +185,11 @@ class RelaxedSkinMembrane(SkinMembrane):
     """:class:`~breastcore.fem.skin.SkinMembrane` with the relaxed energy :func:`relaxed_membrane`
     (numpy, no compiled loops: a study, not the product). Arrays and units as the parent's.
 
-    Its gradient refuses a zero modulus: :func:`breastcore.fem.terms.modulus_gradient` (the implicit
-    Jacobian's derivative in a skin modulus) sets one to zero, which is valid only for an energy
-    linear in each modulus, and would otherwise give a wrong Jacobian without a word.
+    Its forces refuse one zero modulus (both zero, the skin switched off, give zero):
+    :func:`breastcore.fem.terms.modulus_gradient` (the implicit Jacobian's derivative in a skin
+    modulus) zeroes one, which is valid only for an energy linear in each modulus, and would
+    otherwise give a wrong Jacobian without a word. So λ_s = 0 with μ_s > 0 (or the reverse), which
+    the spec allows, is not supported by this study.
     """
 
     @classmethod
@@ -195,14 +205,17 @@ class RelaxedSkinMembrane(SkinMembrane):
         return e, g, D, I1, principal_gap(self.G_inv, g)
 
     def _invariant_derivatives(self, x):
-        if self.lam == 0 or self.mu == 0:
-            raise ValueError("the relaxed skin is not linear in each modulus: modulus_gradient does not apply")
+        """Edges, Gram matrices, :func:`relaxed_membrane`'s six derivatives, ``∂I₁/∂e`` and ``∂D/∂e``
+        (``(S, 2, 3)`` each), and the triangles near the triple point."""
+        if (self.lam == 0) != (self.mu == 0):
+            raise ValueError("the relaxed skin refuses one zero modulus: its energy is not linear in each "
+                             "modulus, and modulus_gradient (which zeroes one) would be wrong without a word")
         e, g, D, I1, s = self._kinematics(x)
         derivatives, _ = relaxed_membrane(I1, D, s, self.det_G, self.lam, self.mu)
         dD = 2.0 * np.stack([g[:, 1, 1, None] * e[:, 0] - g[:, 0, 1, None] * e[:, 1],
                              g[:, 0, 0, None] * e[:, 1] - g[:, 0, 1, None] * e[:, 0]], axis=1)
         dI = 2.0 * np.einsum("nab,nbi->nai", self.G_inv, e)
-        return e, g, derivatives, dI, dD
+        return e, g, derivatives, dI, dD, near_triple_point(I1, s)
 
     def states(self, x):
         """Per triangle: 0 slack, 1 wrinkled, 2 taut (:func:`skin_states`)."""
@@ -224,7 +237,7 @@ class RelaxedSkinMembrane(SkinMembrane):
 
     def element_gradients(self, x):
         """Per-triangle nodal forces ``(S, 3, 3)``, N."""
-        _, _, (_, W_I, W_D, *_), dI, dD = self._invariant_derivatives(x)
+        _, _, (_, W_I, W_D, *_), dI, dD, _ = self._invariant_derivatives(x)
         dW = W_I[:, None, None] * dI + W_D[:, None, None] * dD
         return _edges_to_nodes(dW * self.area[:, None, None], 1)
 
@@ -236,8 +249,9 @@ class RelaxedSkinMembrane(SkinMembrane):
 
     def element_hessians(self, x):
         """Per-triangle Hessian blocks ``(S, 9, 9)``, N m⁻¹:
-        ``W_I ∂²I₁ + W_D ∂²D + W_II ∂I₁∂I₁ + W_ID (∂I₁∂D + ∂D∂I₁) + W_DD ∂D∂D``."""
-        e, g, (_, W_I, W_D, W_II, W_ID, W_DD), dI, dD = self._invariant_derivatives(x)
+        ``W_I ∂²I₁ + W_D ∂²D + W_II ∂I₁∂I₁ + W_ID (∂I₁∂D + ∂D∂I₁) + W_DD ∂D∂D``; the spec's blocks for
+        the triangles within :data:`TRIPLE_POINT` of ``a = b = 1`` (the taut side's Hessian)."""
+        e, g, (_, W_I, W_D, W_II, W_ID, W_DD), dI, dD, near = self._invariant_derivatives(x)
         n, eye = len(e), np.eye(3)
         e1, e2, e12 = e[:, 0], e[:, 1], g[:, 0, 1]
         outer = lambda u, v: np.einsum("ni,nj->nij", u, v)  # noqa: E731
@@ -253,7 +267,10 @@ class RelaxedSkinMembrane(SkinMembrane):
         H += W_ID[:, None, None, None, None] * (pair(dI, dD) + pair(dD, dI))
         H += W_DD[:, None, None, None, None] * pair(dD, dD)
         H *= self.area[:, None, None, None, None]
-        return _edges_to_nodes(_edges_to_nodes(H, 1), 3).reshape(n, 9, 9)
+        blocks = _edges_to_nodes(_edges_to_nodes(H, 1), 3).reshape(n, 9, 9)
+        if np.any(near):
+            blocks[near] = SkinMembrane.element_hessians(self, x)[near]
+        return blocks
 
     def scatter_hessian(self, data, positions, x):
         """Add :meth:`element_hessians` into CSR ``data`` at ``positions``."""

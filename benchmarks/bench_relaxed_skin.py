@@ -122,11 +122,15 @@ def path_rows(mesh):
                           for other in solved if other != posture.name]
                 outcomes[posture.name] += [(np.linalg.norm(s.position - reference.position, axis=1).max(),
                                             s.energy - reference.energy) for s in paths]
-        for posture, found in outcomes.items():
-            elsewhere = [(d, e) for d, e in found if d > OTHER_EQUILIBRIUM]
-            rows.append([name, posture, f"{len(elsewhere)} of {len(found)}",
-                         f"{1e3 * max(d for d, _ in found):.3g}", f"{min(e for _, e in found):.2e}"])
+        rows += [path_row(name, posture, found) for posture, found in outcomes.items()]
     return rows
+
+
+def path_row(skin, posture, found):
+    """One row of the path table from ``found``, the other paths' ``(distance m, ΔE J)`` from the default's."""
+    elsewhere = sum(distance > OTHER_EQUILIBRIUM for distance, _ in found)
+    return [skin, posture, f"{elsewhere} of {len(found)}", f"{1e3 * max(d for d, _ in found):.3g}",
+            f"{min(e for _, e in found):.2e}"]
 
 
 def main(argv=None):
