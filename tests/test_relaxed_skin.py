@@ -134,18 +134,24 @@ def _deformed_patch(seed=0, count=60, strain=0.5):
     return term, x
 
 
-def test_gradient_and_hessian_match_central_differences_in_every_state():
-    term, x = _deformed_patch()
-    states = term.states(x)
-    assert set(states) == {0, 1, 2}
-    h = 1e-6
-    gradient, fd = term.gradient(x), np.zeros_like(x)
+def _central_difference_gradient(term, x, h):
+    """``(n, 3)`` central differences of ``term.value`` with step ``h`` (m) in each coordinate."""
+    fd = np.zeros_like(x)
     for i in range(len(x)):
         for k in range(3):
             plus, minus = x.copy(), x.copy()
             plus[i, k] += h
             minus[i, k] -= h
             fd[i, k] = (term.value(plus) - term.value(minus)) / (2 * h)
+    return fd
+
+
+def test_gradient_and_hessian_match_central_differences_in_every_state():
+    term, x = _deformed_patch()
+    states = term.states(x)
+    assert set(states) == {0, 1, 2}
+    h = 1e-6
+    gradient, fd = term.gradient(x), _central_difference_gradient(term, x, h)
     assert np.abs(fd - gradient).max() <= 1e-7 * np.abs(gradient).max()
     hessians, per_element = term.element_hessians(x), term.element_gradients
     for t, nodes in enumerate(term.connectivity):
@@ -164,13 +170,7 @@ def test_forces_match_central_differences_near_the_triple_point():
     term, x = _deformed_patch(seed=2, count=200, strain=1e-4)
     _, _, _, I1, s = term._kinematics(x)
     assert np.any(relaxed.near_triple_point(I1, s)) and not np.all(relaxed.near_triple_point(I1, s))
-    h, gradient, fd = 1e-7, term.gradient(x), np.zeros_like(x)
-    for i in range(len(x)):
-        for k in range(3):
-            plus, minus = x.copy(), x.copy()
-            plus[i, k] += h
-            minus[i, k] -= h
-            fd[i, k] = (term.value(plus) - term.value(minus)) / (2 * h)
+    gradient, fd = term.gradient(x), _central_difference_gradient(term, x, h=1e-7)
     # the differences are good to ~1e-5 here: W's round-off at strains of 1e-4 (ε/strain² per h) and the
     # kinks at the state lines (O(h/strain)); a force of the wrong state would be off by O(1)
     assert np.abs(fd - gradient).max() <= 1e-3 * np.abs(gradient).max()
