@@ -212,8 +212,7 @@ class RelaxedSkinMembrane(SkinMembrane):
                              "modulus, and modulus_gradient (which zeroes one) would be wrong without a word")
         e, g, D, I1, s = self._kinematics(x)
         derivatives, _ = relaxed_membrane(I1, D, s, self.det_G, self.lam, self.mu)
-        dD = 2.0 * np.stack([g[:, 1, 1, None] * e[:, 0] - g[:, 0, 1, None] * e[:, 1],
-                             g[:, 0, 0, None] * e[:, 1] - g[:, 0, 1, None] * e[:, 0]], axis=1)
+        dD = self._edge_gradient(e, g, D, I1)[1]                       # the parent's ∂D/∂e
         dI = 2.0 * np.einsum("nab,nbi->nai", self.G_inv, e)
         return e, g, derivatives, dI, dD, near_triple_point(I1, s)
 

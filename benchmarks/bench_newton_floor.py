@@ -93,12 +93,12 @@ def variants(deltas):
     return out
 
 
-def counted_solve(mesh, options, params, posture, counter):
+def counted_solve(mesh, options, params, posture, counter, model_class=ForwardModel):
     """``(seconds, Newton iterations, factorisations, largest negative-pivot count, solution)`` of one
-    cold solve."""
+    cold solve by a new ``model_class(mesh, options)`` (its construction timed too)."""
     counter.reset()
     start = time.perf_counter()
-    solution = ForwardModel(mesh, options).solve(params, posture)
+    solution = model_class(mesh, options).solve(params, posture)
     return time.perf_counter() - start, solution.iterations, counter.count, counter.deepest, solution
 
 

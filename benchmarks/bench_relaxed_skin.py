@@ -37,7 +37,6 @@ from __future__ import annotations
 import argparse
 import statistics
 import sys
-import time
 from pathlib import Path
 
 import numpy as np
@@ -47,22 +46,15 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 from benchmarks._common import add_cold_solve_arguments, cold_solve_defaults, header, print_table  # noqa: E402
 from benchmarks._relaxed_skin import RelaxedSkinMembrane, RelaxedSkinModel  # noqa: E402
 from benchmarks.bench_cold_factorisations import factorisation_seconds  # noqa: E402
-from benchmarks.bench_newton_floor import _Counter, _counts, _spread  # noqa: E402
+from benchmarks.bench_newton_floor import _Counter, _counts, _spread, counted_solve  # noqa: E402
 from breastcore.forward.model import ForwardModel  # noqa: E402
+from breastcore.forward.options import SolverOptions  # noqa: E402
 from breastcore.inverse.measurements import QUANTITIES, measure  # noqa: E402
 from breastcore.model.mesh import mesh_level  # noqa: E402
 from breastcore.model.parameters import Parameters  # noqa: E402
 from breastcore.model.postures import paper_postures  # noqa: E402
 
 MODELS = {"spec": ForwardModel, "relaxed": RelaxedSkinModel}
-
-
-def counted_solve(model_class, mesh, params, posture, counter):
-    """``(seconds, iterations, factorisations, largest negative-pivot count, solution)`` of one cold solve."""
-    counter.reset()
-    start = time.perf_counter()
-    solution = model_class(mesh).solve(params, posture)
-    return time.perf_counter() - start, solution.iterations, counter.count, counter.deepest, solution
 
 
 def skin_state_shares(mesh, params, posture, position):
@@ -96,7 +88,6 @@ def path_variants():
     """``{name: SolverOptions}`` of the cold paths compared with the default's."""
     import dataclasses
     from benchmarks.bench_cold_variants import BEFORE
-    from breastcore.forward.options import SolverOptions
     before = dataclasses.replace(SolverOptions(), **BEFORE)
     return {"before-21": before, "ramp at δ = 1e-3 m": dataclasses.replace(before, smoothing_start=1e-3)}
 
@@ -146,7 +137,8 @@ def main(argv=None):
                 runs = {name: [] for name in MODELS}
                 for repeat in range(args.repeats):          # alternated, the first model swapped each repeat
                     for name in (list(MODELS) if repeat % 2 == 0 else list(MODELS)[::-1]):
-                        runs[name].append(counted_solve(MODELS[name], mesh, params, posture, counter))
+                        runs[name].append(counted_solve(mesh, SolverOptions(), params, posture, counter,
+                                                        model_class=MODELS[name]))
                 factor = factorisation_seconds(ForwardModel(mesh), params, posture, runs["spec"][0][4].position)
                 for name, solves in runs.items():
                     seconds = statistics.median(s[0] for s in solves)
