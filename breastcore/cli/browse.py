@@ -122,6 +122,11 @@ def _worth(ds, verdict=True) -> list:
         loose = undetermined(ds["parameter"].values, ds["determined"].values)
         if loose:
             lines.append(f"  {UNDETERMINED}: {', '.join(loose)}")
+        if "limit" in ds:
+            from breastcore.inverse.uncertainty import UNSEEN, at_limit
+            ends = at_limit(ds["parameter"].values, ds["limit"].values)
+            if ends:
+                lines.append(f"  {UNSEEN}: {', '.join(ends)}")
     if "sliding_margin" in ds and ds["sliding_margin"].ndim == 0:
         lines.append(f"  sliding margin c/(ρ g V/|Γ_B|): {float(ds['sliding_margin']):.4g}")
     if a.get("regime_warning"):

@@ -95,6 +95,7 @@ def register(sub):
 def run(args):
     from breastcore.forward.options import SolverOptions
     from breastcore.inverse.options import IdentificationOptions
+    from breastcore.inverse.uncertainty import SEEN, limit_note
     from breastcore.io.datasets import open_dataset, write_netcdf
     from breastcore.io.targets import target_from_dataset, truth_from_dataset
     from breastcore.problem import ProblemSpec
@@ -125,12 +126,14 @@ def run(args):
     ds = identify_target(problem, mesh, target, truth_from_dataset(ds_m), initial, mesh_level=level,
                          processes=args.processes)
     write_netcdf(ds, args.out)
-    for name, value, lo, hi, ok, decades in zip(IDENTIFIED, ds["estimate"].values, ds["interval_low"].values,
-                                                ds["interval_high"].values, ds["determined"].values,
-                                                ds["interval_decades"].values):
-        interval = f"95 %: {lo:.4g} … {hi:.4g}" if ok else \
-            f"not determined by these measurements: its 95 % interval spans {decades:.3g} decades"
-        print(f"{name:>14s} = {value:.6g} {PARAMETER_INFO[name].units}  ({interval})")
+    for name, value, lo, hi, ok, decades, limit in zip(IDENTIFIED, ds["estimate"].values, ds["interval_low"].values,
+                                                       ds["interval_high"].values, ds["determined"].values,
+                                                       ds["interval_decades"].values, ds["limit"].values):
+        unit = PARAMETER_INFO[name].units
+        interval = (f"not determined: {limit_note(int(limit), value, unit)}" if limit != SEEN else
+                    f"95 %: {lo:.4g} … {hi:.4g}" if ok else
+                    f"not determined by these measurements: its 95 % interval spans {decades:.3g} decades")
+        print(f"{name:>14s} = {value:.6g} {unit}  ({interval})")
     print(f"{'cost':>14s} = {ds['cost'].values[-1]:.3e} after {ds.sizes['iteration'] - 1} iterations; "
           f"{ds.attrs['message']}")
     print(f"{'fit verdict':>14s} = {ds.attrs['verdict']}: {ds.attrs['verdict_message']}")

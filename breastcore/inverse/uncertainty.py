@@ -19,6 +19,13 @@ says that the measurements do not determine that parameter: its bounds are NaN (
 overflowed ``[0, inf]`` or an interval from 4e-5 to 2e11 Pa) and its width is reported in
 decades, ``2 · 1.96 σ_j / ln 10``, which never overflows (it is inf only for a parameter that
 the measurements do not move at all).
+
+A parameter whose weighted relative-Jacobian column has a 2-norm below
+:data:`UNSEEN_SENSITIVITY`, ``‖√W J_j‖ < 1e-6``, is *unseen*: a change by a factor e moves the
+measurements by less than 1e-6 relative, far below any tape's precision, and its estimate is
+wherever the optimiser stopped. A modulus sent towards 0 (or ∞) has such a column, because the
+measurements tend to the limit model's as ``∂ ln M/∂ ln Λ_j → 0``; such an estimate (1.95e-27 Pa, say)
+is a limit, not a value, and :func:`limits` says which way it went from its start.
 """
 
 from __future__ import annotations
@@ -30,11 +37,60 @@ Z95 = 1.959963984540054
 DETERMINED_FACTOR = 10.0
 #: What an undetermined parameter is called in logs and ``show``, before the parameters' names.
 UNDETERMINED = f"not determined by these measurements (95 % interval wider than a factor {DETERMINED_FACTOR:g})"
+#: A parameter whose weighted relative-Jacobian column is shorter than this (2-norm) is unseen.
+UNSEEN_SENSITIVITY = 1e-6
+#: What unseen parameters are called in logs and ``show``, before their names and limits.
+UNSEEN = (f"unseen by these measurements (a factor e moves them by less than {UNSEEN_SENSITIVITY:g}): "
+          "estimates that are limits, not values")
+#: The codes of :func:`limits`: a value (seen), a limit towards 0 or ∞, unseen where it started.
+SEEN, TOWARDS_ZERO, TOWARDS_INFINITY, UNSEEN_UNMOVED = 0, -1, 1, 2
 
 
 def undetermined(parameters, determined_flags) -> list:
     """The names of ``parameters`` whose ``determined`` flag (an identification's variable) is 0."""
     return [str(p) for p, ok in zip(parameters, determined_flags) if not ok]
+
+
+def limits(J, estimate, initial, weights=None):
+    r"""Per parameter, whether its estimate is a limit (int8 array of :data:`SEEN`, :data:`TOWARDS_ZERO`,
+    :data:`TOWARDS_INFINITY` or :data:`UNSEEN_UNMOVED`).
+
+    Parameters
+    ----------
+    J : array, shape (n, p)
+        Relative Jacobian ``∂ ln M/∂ ln Λ`` at the estimate (dimensionless).
+    estimate, initial : arrays, shape (p,)
+        The estimate and the optimiser's start (each parameter in its own unit, both positive).
+    weights : array, shape (n,), optional
+        The measurements' weights ``w_i`` (default 1).
+
+    Notes
+    -----
+    Unseen: :math:`\|\sqrt{W} J_{:,j}\|_2 <` :data:`UNSEEN_SENSITIVITY`. Its direction is the sign
+    of :math:`\ln(\hat\Lambda_j / \Lambda^0_j)`.
+    """
+    J = np.asarray(J, float)
+    w = np.ones(J.shape[0]) if weights is None else np.asarray(weights, float).ravel()
+    unseen = np.linalg.norm(np.sqrt(w)[:, None] * J, axis=0) < UNSEEN_SENSITIVITY
+    moved = np.sign(np.log(np.asarray(estimate, float) / np.asarray(initial, float)))
+    direction = np.where(moved < 0, TOWARDS_ZERO, np.where(moved > 0, TOWARDS_INFINITY, UNSEEN_UNMOVED))
+    return np.where(unseen, direction, SEEN).astype(np.int8)
+
+
+def limit_note(limit, estimate, unit) -> str:
+    """Why an unseen parameter (:func:`limits` code ``limit``, not :data:`SEEN`) has no value: one phrase."""
+    unseen = f"unseen by these measurements (a factor e moves them by less than {UNSEEN_SENSITIVITY:g})"
+    if limit == UNSEEN_UNMOVED:
+        return f"{unseen}; it stayed at its start, {estimate:.3g} {unit}"
+    side, end = ("below", "0") if limit == TOWARDS_ZERO else ("above", "∞")
+    return (f"→ {end}: {unseen}; every value {side} {estimate:.3g} {unit}, where the optimiser stopped, "
+            "fits as well: a limit, not a value")
+
+
+def at_limit(parameters, limit_codes) -> list:
+    """``"name → 0"`` (or ``→ ∞``, or ``unseen``) for each parameter whose :func:`limits` code is not SEEN."""
+    ends = {TOWARDS_ZERO: " → 0", TOWARDS_INFINITY: " → ∞", UNSEEN_UNMOVED: " unseen"}
+    return [f"{p}{ends[int(code)]}" for p, code in zip(parameters, limit_codes) if int(code) != SEEN]
 
 
 def linearised_sensitivity(J, weights=None):

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import json
 
+from breastcore.inverse.uncertainty import SEEN, limit_note
 from breastcore.io.patient import DEFAULT_UNITS, KIND, UNIT_FACTORS
 
 
@@ -37,12 +38,16 @@ def measured_and_fitted(ds):
 
 def estimate_rows(ds) -> list:
     """Per parameter: ``(name, estimate, unit, interval)``, the estimate in clinical units and
-    ``interval`` either ``(low, high)`` or the reason there is none (a str)."""
+    ``interval`` either ``(low, high)`` or the reason there is none (a str; for an unseen parameter,
+    :func:`~breastcore.inverse.uncertainty.limit_note`)."""
     rows = []
     for i, name in enumerate(str(p) for p in ds["parameter"].values):
         unit, factor = PARAMETER_UNITS.get(name, ("", 1.0))
         value = float(ds["estimate"].values[i]) * factor
-        if int(ds["determined"].values[i]):
+        limit = int(ds["limit"].values[i]) if "limit" in ds else SEEN        # datasets before the flag: none
+        if limit != SEEN:
+            interval = "not determined: " + limit_note(limit, value, unit)
+        elif int(ds["determined"].values[i]):
             interval = tuple(float(ds[k].values[i]) * factor for k in ("interval_low", "interval_high"))
         else:
             decades = float(ds["interval_decades"].values[i]) if "interval_decades" in ds else float("nan")

@@ -8,7 +8,7 @@ import numpy as np
 import pandas as pd
 import xarray as xr
 
-from breastcore.inverse.uncertainty import DETERMINED_FACTOR
+from breastcore.inverse.uncertainty import DETERMINED_FACTOR, SEEN, limit_note
 from breastcore.inverse.verdict import VERDICTS
 from breastcore.io.datasets import _var, open_dataset, provenance
 from breastcore.io.solution import DIAGNOSTICS
@@ -140,14 +140,15 @@ def error_table(summary: xr.Dataset) -> pd.DataFrame:
 
 def error_table_with_units(summary: xr.Dataset) -> pd.DataFrame:
     """:func:`error_table` with a unit in every column name (``parameter_errors.csv``): errors
-    and the residual in %, the wall time in s, the iterations and verdicts as counts."""
+    and the residual in %, the wall time in s, the iterations and verdicts as counts. The errors are
+    means over the runs of ``|estimate / truth − 1|``, so the names say ``|error|``: a sign would cancel."""
     table = error_table(summary)
     table["residual"] = (table["residual"] * 100).round(5)
-    names = {p: f"{p} error (%)" for p in IDENTIFIED}
-    names.update({"mean": "mean error (%)", "residual": "RMS measurement residual (%)", "time_s": "wall time (s)",
+    names = {p: f"{p} |error| (%)" for p in IDENTIFIED}
+    names.update({"mean": "mean |error| over the parameters (%)", "residual": "RMS measurement residual (%)", "time_s": "wall time (s)",
                   "iterations": "iterations (mean count)"})
     names.update({v: f"{v} (runs)" for v in VERDICTS})
-    return table.rename(columns=names)
+    return table.rename(columns=names).rename_axis(index={"offset": "initial offset (fraction)"})
 
 
 def solution_summary(path, name, kind, config_hash=None) -> xr.Dataset:
@@ -162,7 +163,7 @@ def solution_summary(path, name, kind, config_hash=None) -> xr.Dataset:
                 data[key] = ds[variable].variable
     verdict = {}
     if kind == "patient":
-        for key in ("estimate", "interval_low", "interval_high", "interval_decades", "determined", "cost",
+        for key in ("estimate", "interval_low", "interval_high", "interval_decades", "determined", "limit", "cost",
                     "standardised_residual"):
             data[key] = ds[key].variable
         units = ds["target"].attrs["units"]
@@ -211,6 +212,9 @@ def parameter_table(identification: xr.Dataset) -> pd.DataFrame:
         "ci95_high": identification["interval_high"].values,
         "interval_decades": identification["interval_decades"].values,
         "determined": np.where(determined, "yes", "no: not determined by these measurements"),
+        "limit": [limit_note(code, value, PARAMETER_INFO[p].units) if code != SEEN else "none (a value)"
+                  for p, code, value in zip(IDENTIFIED, identification["limit"].values.astype(int),
+                                            identification["estimate"].values)],
         "fit_verdict": identification.attrs["verdict"],
         "regime_warning": identification.attrs.get("regime_warning") or "none",
         "input_notes": notes,
@@ -218,8 +222,13 @@ def parameter_table(identification: xr.Dataset) -> pd.DataFrame:
 
 
 def diagnostics_table(ds: xr.Dataset) -> pd.DataFrame:
-    """Solver diagnostics per posture of a solution (or identification: ``solve_*``) dataset."""
-    cols = {k: ds[n].values for k in DIAGNOSTICS for n in (k, "solve_" + k) if n in ds and "posture" in ds[n].dims}
+    """Solver diagnostics per posture of a solution (or identification: ``solve_*``) dataset; each
+    column's heading carries its unit, ``gradient_norm (N)``, or none for a count or a ratio."""
+    def heading(key):
+        units = DIAGNOSTICS[key][0]
+        return key if units == "1" else f"{key} ({units})"
+    cols = {heading(k): ds[n].values for k in DIAGNOSTICS for n in (k, "solve_" + k)
+            if n in ds and "posture" in ds[n].dims}
     return pd.DataFrame(cols, index=pd.Index(ds["posture"].values, name="posture"))
 
 

@@ -9,7 +9,7 @@ from breastcore.forward.options import SolverOptions
 from breastcore.inverse.identify import identify
 from breastcore.inverse.operator import MeasurementModel
 from breastcore.inverse.options import IdentificationOptions
-from breastcore.inverse.uncertainty import UNDETERMINED, undetermined
+from breastcore.inverse.uncertainty import UNDETERMINED, UNSEEN, at_limit, undetermined
 from breastcore.io.datasets import mesh_from_dataset, open_dataset, write_netcdf
 from breastcore.io.identification import identification_dataset
 from breastcore.io.targets import target_from_dataset, truth_from_dataset
@@ -97,3 +97,6 @@ def log_verdict(ds):
     loose = undetermined(ds["parameter"].values, ds["determined"].values)
     if loose:
         log.warning("%s: %s", UNDETERMINED, ", ".join(loose))
+    ends = at_limit(ds["parameter"].values, ds["limit"].values)
+    if ends:
+        log.warning("%s: %s", UNSEEN, ", ".join(ends))

@@ -100,3 +100,29 @@ def test_rank_deficient_jacobian_uses_the_pseudo_inverse(linear_model):
     assert rank == N_PAR - 1 and cond > 1e12
     S = linearised_sensitivity(J)
     assert np.all(np.isfinite(S)) and np.allclose(S, np.linalg.pinv(J))
+
+
+def test_limits_flag_only_columns_the_weighted_measurements_do_not_see(linear_model):
+    from breastcore.inverse.uncertainty import (
+        SEEN,
+        TOWARDS_INFINITY,
+        TOWARDS_ZERO,
+        UNSEEN_SENSITIVITY,
+        UNSEEN_UNMOVED,
+        limits,
+    )
+    J = linear_model.copy()
+    J[:, 1] *= 0.5 * UNSEEN_SENSITIVITY / np.linalg.norm(J[:, 1])      # half the threshold: unseen
+    J[:, 4] *= 2.0 * UNSEEN_SENSITIVITY / np.linalg.norm(J[:, 4])      # twice it: seen, however weakly
+    J[:, 5] *= 0.5 * UNSEEN_SENSITIVITY / np.linalg.norm(J[:, 5])
+    initial = TRUTH.copy()
+    estimate = TRUTH * np.array([1.0, 1e-20, 3.0, 0.5, 1e-9, 1e9])
+    codes = limits(J, estimate, initial)
+    assert codes.tolist() == [SEEN, TOWARDS_ZERO, SEEN, SEEN, SEEN, TOWARDS_INFINITY]
+    assert limits(J, initial, initial)[[1, 5]].tolist() == [UNSEEN_UNMOVED, UNSEEN_UNMOVED]
+    # what a measurement weighs decides what it shows: a column seen only by unweighted rows is unseen
+    weights = np.ones(N_MEAS)
+    weights[:7] = 0.0
+    J[7:, 2] = 0.0
+    assert limits(J, estimate, initial, weights)[2] == TOWARDS_INFINITY
+    assert limits(J, estimate, initial)[2] == SEEN

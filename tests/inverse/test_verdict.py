@@ -203,7 +203,8 @@ def _identification(path, verdict, success, determined=(1, 1, 1, 1, 1, 1), error
          "interval_low": (("parameter",), np.where(ok, estimate * 0.9, np.nan)),
          "interval_high": (("parameter",), np.where(ok, estimate * 1.1, np.nan)),
          "interval_decades": (("parameter",), np.where(ok, 0.09, 3.5)),
-         "determined": (("parameter",), ok.astype(np.int8))},
+         "determined": (("parameter",), ok.astype(np.int8)),
+         "limit": (("parameter",), np.zeros(6, np.int8))},
         coords={"parameter": list(IDENTIFIED), "posture": postures, "quantity": quantities, "iteration": [0, 1]})
     for variable in ds.variables.values():
         variable.attrs.update(units="1", long_name="made up for the test")
@@ -266,3 +267,36 @@ def test_an_undetermined_parameter_is_marked_in_show_and_the_parameters_csv(tmp_
     assert table.loc[undetermined, ["ci95_low", "ci95_high"]].isna().all().all()   # no bounds, not huge ones
     assert table.loc[~undetermined, ["ci95_low", "ci95_high"]].notna().all().all()
     assert (table.loc[undetermined, "interval_decades"] > 1).all()
+
+
+def test_a_modulus_sent_to_zero_is_shown_as_a_limit_not_a_value(tmp_path):
+    """A patient (the example's, standing smaller) whose best fit needs no skin shear stiffness: the
+    optimiser stops with μ_s at 2e-27 Pa. The estimate is flagged a limit, and what the flag says is
+    checked by solving again: below it the measurements do not move, while λ_s (not flagged) moves them."""
+    from breastcore.cli.browse import describe
+    from breastcore.inverse.uncertainty import SEEN, TOWARDS_ZERO, UNSEEN_SENSITIVITY
+    from breastcore.io.rebuild import problem_from_identification
+    from breastcore.report.summaries import parameter_table
+    postures = {"standing": {"volume": 480, "area": 220, "height": 128, "frontal_depth": 48, "back_depth": 48},
+                "bent45": {"volume": 759, "area": 238, "height": 121, "frontal_depth": 59, "back_depth": 59},
+                "fours": {"volume": 915, "area": 239, "height": 118, "frontal_depth": 64, "back_depth": 64}}
+    (tmp_path / "p.yaml").write_text(yaml.safe_dump({"postures": postures}))
+    assert cli("measure", "--patient", tmp_path / "p.yaml", "--out", tmp_path / "m.nc").returncode == 0
+    out = cli("identify", "--measurements", tmp_path / "m.nc", "--mesh", "coarse", "--out", tmp_path / "id.nc")
+    ds = open_dataset(tmp_path / "id.nc")
+    limit = dict(zip(ds["parameter"].values, ds["limit"].values.tolist()))
+    assert limit["mu_skin"] == TOWARDS_ZERO and ds["estimate"].values[5] < 1e-6, ds["estimate"].values
+    assert all(limit[p] == SEEN for p in ("R", "H", "lambda_breast", "mu_breast", "lambda_skin")), limit
+    assert "mu_skin = " in out.stdout and "→ 0: unseen by these measurements" in out.stdout, out.stdout
+    shown = describe(ds)
+    assert "mu_skin → 0" in shown and "a limit, not a value" in shown
+    table = parameter_table(ds)
+    assert table["limit"][4] == "none (a value)" and table["limit"][5].startswith("→ 0: unseen")
+    _, mm, _, estimate = problem_from_identification(ds)
+    with mm:
+        def relative_change(index, factor):
+            moved = estimate.copy()
+            moved[index] *= factor
+            return np.abs(mm.measure(mm.solve(moved)) / mm.measure(mm.solve(estimate)) - 1.0).max()
+        assert relative_change(5, 1e-6) < UNSEEN_SENSITIVITY          # μ_s a millionth smaller: nothing moves
+        assert relative_change(4, np.e) > 10 * UNSEEN_SENSITIVITY      # λ_s, seen: a factor e moves them
