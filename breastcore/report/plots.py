@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 from matplotlib.figure import Figure
-from matplotlib.ticker import FuncFormatter
+from matplotlib.ticker import FuncFormatter, MaxNLocator
 
 from breastcore.model.parameters import IDENTIFIED
 
@@ -18,16 +18,32 @@ def subplots(*args, figsize, **kwargs):
 
 
 def _save(fig, path):
+    """Write ``fig`` to ``path`` and return it (for tests to read its artists)."""
     fig.tight_layout()
     fig.savefig(path, dpi=110)
+    return fig
+
+
+def _gravity(ds, posture):
+    """The posture's gravity direction: a solution's ``gravity``, else ``(0, sin θ, −cos θ)`` from
+    ``posture_angle`` (an identification's), else None."""
+    if "gravity" in ds:
+        return ds["gravity"].sel(posture=posture).values
+    if "posture_angle" in ds:
+        theta = np.radians(float(ds["posture_angle"].sel(posture=posture)))
+        return np.array([0.0, np.sin(theta), -np.cos(theta)])
+    return None
 
 
 def shape_figure(ds, posture, path):
-    """Side (y–z) and front (x–z) views of the skin, gravity-free (grey) and deformed (colour), mm."""
+    """Side (y–z) and front (x–z) views of the skin, gravity-free (grey) and deformed (colour), mm,
+    with the torso plane y = 0 (side view), the lowest point of the fixed infra-mammary fold (dashed)
+    and the direction of gravity, so that a reader sees where the breast hangs against its fold."""
     x0 = ds["reference_position"].values * 1e3
     x = ds["position"].sel(posture=posture).values * 1e3
     tris = ds["skin_triangles"].values
-    g = ds["gravity"].sel(posture=posture).values if "gravity" in ds else None
+    g = _gravity(ds, posture)
+    fold_low = x0[ds["fold"].values.astype(bool), 2].min() if "fold" in ds else None
     fig, axes = subplots(1, 2, figsize=(8, 4))
     for ax, (i, j, label) in zip(axes, [(1, 2, "side: y anterior (mm)"), (0, 2, "front: x lateral (mm)")]):
         ax.triplot(x0[:, i], x0[:, j], tris, color="0.8", lw=0.4)
@@ -37,12 +53,16 @@ def shape_figure(ds, posture, path):
         ax.set_aspect("equal")
         if i == 1:
             ax.axvline(0, color="k", lw=1)
+        if fold_low is not None:
+            ax.axhline(fold_low, color="0.3", lw=0.8, ls="--")
+            ax.annotate("fold", xy=(0.02, fold_low), xycoords=("axes fraction", "data"), xytext=(0, 2),
+                        textcoords="offset points", fontsize=7, color="0.3")
     if g is not None and np.linalg.norm(g) > 0:           # gravity direction in the side view
         d = 0.12 * g[1:] / np.linalg.norm(g)
         axes[0].annotate("g", xy=(0.85 + d[0], 0.85 + d[1]), xytext=(0.85, 0.85), xycoords="axes fraction",
                          arrowprops={"arrowstyle": "->"})
     fig.suptitle(f"{posture}: gravity-free (grey) and equilibrium (red)")
-    _save(fig, path)
+    return _save(fig, path)
 
 
 def convergence_figure(identifications, path, labels=None):
@@ -51,11 +71,17 @@ def convergence_figure(identifications, path, labels=None):
     fig, axes = subplots(1, 2, figsize=(9, 4))
     styles = ["-", "--", ":", "-."]
     markers = ["o", "s", "^", "v", "D", "x"]
+    hidden = set()
     for k, ds in enumerate(identifications):
         ref = ds["truth"].values if "truth" in ds else ds["estimate"].values
         rel = ds["parameters"].values / ref - 1
+        # an estimate that is a limit (→ 0, → ∞) is no final value to measure a distance to
+        limit = ds["limit"].values if "limit" in ds and "truth" not in ds else np.zeros(len(IDENTIFIED))
         style = {"linestyle": styles[k % len(styles)], "marker": markers[k % len(markers)], "markersize": 3}
         for j, name in enumerate(IDENTIFIED):
+            if limit[j]:
+                hidden.add(f"{_LABELS[name]} {({-1: '→ 0', 1: '→ ∞'}).get(int(limit[j]), 'unseen')}")
+                continue
             axes[0].plot(ds["iteration"], rel[:, j] * 100, color=f"C{j}", alpha=0.7,
                          label=_LABELS[name] if k == 0 else None, **style)
         run = labels[k] if labels is not None and k < len(labels) else f"run {k + 1}"
@@ -63,12 +89,20 @@ def convergence_figure(identifications, path, labels=None):
                          **style)
     if len(identifications) > 1:
         axes[1].legend(fontsize=7, title="run", title_fontsize=7)
+    for ax in axes:                              # iterations are whole numbers
+        ax.xaxis.set_major_locator(MaxNLocator(integer=True))
     axes[0].set_xlabel("iteration")
-    axes[0].set_ylabel("parameter error (%)" if "truth" in identifications[0] else "distance to final (%)")
+    if hidden:
+        axes[0].text(0.02, 0.02, "not shown, limits: " + ", ".join(sorted(hidden)), transform=axes[0].transAxes,
+                     fontsize=7)
+    # symmetric log: a modulus 100× off and one 1 % off in one panel (linear within ±1 %)
+    axes[0].set_yscale("symlog", linthresh=1.0)
+    axes[0].set_ylabel(("parameter error" if "truth" in identifications[0] else "distance to final")
+                       + " (%, symmetric log scale)")
     axes[0].legend(ncol=3, fontsize=8)
     axes[1].set_xlabel("iteration")
     axes[1].set_ylabel("cost E")
-    _save(fig, path)
+    return _save(fig, path)
 
 
 def sensitivity_figure(ds, path):

@@ -108,7 +108,7 @@ def test_parameter_errors_csv_names_a_unit_in_every_column():
     """It mixed per cent (errors) and fractions (the residual) without saying which."""
     from breastcore.report.summaries import error_table, error_table_with_units
     n = 2
-    summary = xr.Dataset({"relative_error": (("run", "parameter"), np.full((n, 6), 0.02)),
+    summary = xr.Dataset({"relative_error": (("run", "parameter"), np.array([[0.02] * 6, [-0.02] * 6])),
                           "measurement_residual": (("run",), np.full(n, 0.003)),
                           "method": (("run",), ["lm"] * n), "mesh": (("run",), ["coarse"] * n),
                           "offset": (("run",), [0.3] * n), "wall_time": (("run",), [1.0, 3.0]),
@@ -116,6 +116,7 @@ def test_parameter_errors_csv_names_a_unit_in_every_column():
                          coords={"parameter": list(IDENTIFIED)})
     table = error_table_with_units(summary)
     assert all(c.endswith(("(%)", "(s)", "(runs)", "(mean count)")) for c in table.columns), list(table.columns)
-    row = table.iloc[0]
-    assert row["R error (%)"] == 2.0 and row["RMS measurement residual (%)"] == 0.3 and row["wall time (s)"] == 2.0
+    assert table.index.names == ["method", "mesh", "initial offset (fraction)"]
+    row = table.iloc[0]                                  # the mean of |+2 %| and |−2 %|, named so
+    assert row["R |error| (%)"] == 2.0 and row["RMS measurement residual (%)"] == 0.3 and row["wall time (s)"] == 2.0
     assert error_table(summary).iloc[0]["residual"] == 0.003          # the results page's table is unchanged

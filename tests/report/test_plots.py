@@ -1,0 +1,33 @@
+"""What the report's figures draw, read back from their artists: the fold and gravity in the
+shape pictures, and no distance to a final value that is a limit."""
+
+import numpy as np
+import xarray as xr
+
+from breastcore.cli.main import main
+from breastcore.io.datasets import open_dataset
+from breastcore.model.parameters import IDENTIFIED
+from breastcore.report.plots import convergence_figure, shape_figure
+
+
+def test_shape_picture_marks_the_lowest_fold_point_and_gravity(tmp_path):
+    assert main(["solve", "--mesh", "coarse", "--posture", "standing", "--out", str(tmp_path / "s.nc")]) == 0
+    ds = open_dataset(tmp_path / "s.nc")
+    fold_low = 1e3 * ds["reference_position"].values[ds["fold"].values.astype(bool), 2].min()
+    side, front = shape_figure(ds, "standing", tmp_path / "s.png").axes
+    for ax in (side, front):
+        levels = [line.get_ydata()[0] for line in ax.get_lines() if line.get_linestyle() == "--"]
+        assert levels == [fold_low], levels
+    assert [t.get_text() for t in side.texts] == ["fold", "g"]
+
+
+def test_convergence_figure_leaves_out_an_estimate_that_is_a_limit(tmp_path):
+    estimate = np.array([0.06, 0.048, 165.0, 254.0, 41.7, 2e-27])
+    history = np.stack([np.array([0.0562, 0.05, 1000.0, 150.0, 8000.0, 1600.0]), estimate])
+    ds = xr.Dataset({"parameters": (("iteration", "parameter"), history), "estimate": (("parameter",), estimate),
+                     "cost": (("iteration",), [1e-2, 1e-3]), "limit": (("parameter",), [0, 0, 0, 0, 0, -1])},
+                    coords={"iteration": [0, 1], "parameter": list(IDENTIFIED)})
+    left = convergence_figure([ds], tmp_path / "c.png").axes[0]
+    assert [line.get_label() for line in left.get_lines()] == ["R", "H", "λ", "μ", "λ_s"]
+    assert max(np.abs(line.get_ydata()).max() for line in left.get_lines()) < 2e4       # λ_s: 8000 → 41.7
+    assert [t.get_text() for t in left.texts] == ["not shown, limits: μ_s → 0"]
