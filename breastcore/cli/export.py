@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from breastcore.cli.options import dataset_file
+from breastcore.cli.options import dataset_file, writable_folder
 
 
 def register(sub):
@@ -13,7 +13,8 @@ def register(sub):
     p.add_argument("solution", type=dataset_file("solve", "identify"), metavar="SOLUTION.nc",
                    help="solution or identification dataset (stage solve or identify)")
     p.add_argument("--format", choices=["vtu", "xdmf"], default="vtu", help="file format (default vtu)")
-    p.add_argument("--out-dir", default=None, help="folder for the files (default: beside SOLUTION.nc)")
+    p.add_argument("--out-dir", default=None, type=writable_folder,
+                   help="folder for the files (default: beside SOLUTION.nc)")
     p.set_defaults(run=run)
 
 

@@ -160,17 +160,51 @@ def posture_text(text):
 
 
 def writable_path():
-    """Argument type: a file path whose folder exists (or can be made) and is writable."""
+    """Argument type: a file path whose folder exists (or can be made) and takes a new file.
+
+    Checked before any work: an empty name, a folder, or anything that is not a regular file
+    (a device such as /dev/null, a pipe) is refused, because the output is written under a
+    temporary name and renamed over the path, which would replace that device. The folder (or
+    its nearest existing ancestor) is probed by creating and removing a file in it, since
+    permission bits alone do not tell (a read-only mount, /proc).
+    """
     def convert(text):
         path = Path(text)
-        folder = path.parent if str(path.parent) else Path(".")
-        probe = folder
+        if not text.strip() or not path.name:
+            raise argparse.ArgumentTypeError(f"cannot write {text!r}: not a file name")
+        if path.exists() and not path.is_file():
+            kind = "a folder" if path.is_dir() else "not a regular file (a device or a pipe)"
+            raise argparse.ArgumentTypeError(f"cannot write {text!r}: it is {kind}")
+        probe = path.parent
         while not probe.exists():
             probe = probe.parent
-        if not probe.is_dir() or not os.access(probe, os.W_OK) or (path.exists() and not os.access(path, os.W_OK)):
+        if not probe.is_dir() or (path.exists() and not os.access(path, os.W_OK)) or not _can_create_in(probe):
             raise argparse.ArgumentTypeError(f"cannot write {text!r}")
         return path
     return convert
+
+
+def writable_folder(text) -> Path:
+    """Argument type: a folder that exists or can be made (not an existing file), and takes files."""
+    path = Path(text)
+    if path.exists() and not path.is_dir():
+        raise argparse.ArgumentTypeError(f"cannot write into {text!r}: it is a file, not a folder")
+    probe = path
+    while not probe.exists():
+        probe = probe.parent
+    if not probe.is_dir() or not _can_create_in(probe):
+        raise argparse.ArgumentTypeError(f"cannot write into {text!r}")
+    return path
+
+
+def _can_create_in(folder) -> bool:
+    """Whether a new file can be created (and removed) in the existing ``folder``."""
+    import tempfile
+    try:
+        with tempfile.TemporaryFile(dir=folder):
+            return True
+    except OSError:
+        return False
 
 
 def _readable_file(text) -> Path:

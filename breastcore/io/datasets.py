@@ -47,6 +47,9 @@ def _write_atomically(path, write) -> Path:
     No temporary file is left behind, whether ``write`` succeeds or raises.
     """
     path = Path(path)
+    if path.exists() and not path.is_file():            # the rename would replace a device or fail on a folder
+        raise IsADirectoryError(f"cannot write {str(path)!r}: it is a folder") if path.is_dir() else \
+            FileExistsError(f"cannot write {str(path)!r}: it exists and is not a regular file (a device or a pipe)")
     path.parent.mkdir(parents=True, exist_ok=True)
     tmp = _new_temporary(path)
     try:

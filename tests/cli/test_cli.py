@@ -53,6 +53,53 @@ def test_unwritable_output_path_is_rejected(tmp_path):
     assert out.returncode == 2 and "--out" in out.stderr and len(out.stderr.strip().splitlines()) == 1
 
 
+@pytest.mark.parametrize("kind, words", [("pipe", "not a regular file"), ("folder", "it is a folder"),
+                                         ("empty", "not a file name")])
+def test_an_output_that_is_no_regular_file_is_refused_before_any_work(tmp_path, capsys, kind, words):
+    """The output is renamed over its path: a device or pipe there would be replaced (a review's
+    ``--out /dev/null`` replaced the machine's /dev/null). A pipe stands in for the device here."""
+    import os
+    import stat
+
+    from breastcore.cli.main import main
+    target = tmp_path / "target"
+    if kind == "pipe":
+        os.mkfifo(target)
+    elif kind == "folder":
+        target.mkdir()
+    out = "" if kind == "empty" else str(target)
+    assert main(["solve", "--mesh", "coarse", "--out", out]) == 2
+    line, = capsys.readouterr().err.strip().splitlines()
+    assert "--out" in line and words in line, line
+    if kind == "pipe":
+        assert stat.S_ISFIFO(os.stat(target).st_mode)
+
+
+def test_the_atomic_writer_never_renames_over_a_pipe_or_a_folder(tmp_path):
+    import os
+    import stat
+
+    import xarray as xr
+
+    from breastcore.io.datasets import write_netcdf
+    ds = xr.Dataset({"a": ((), 1.0, {"units": "1", "long_name": "a number"})})
+    os.mkfifo(tmp_path / "pipe")
+    (tmp_path / "folder").mkdir()
+    with pytest.raises(FileExistsError, match="not a regular file"):
+        write_netcdf(ds, tmp_path / "pipe")
+    with pytest.raises(IsADirectoryError, match="it is a folder"):
+        write_netcdf(ds, tmp_path / "folder")
+    assert stat.S_ISFIFO(os.stat(tmp_path / "pipe").st_mode) and sorted(os.listdir(tmp_path)) == ["folder", "pipe"]
+
+
+def test_export_refuses_an_out_dir_that_is_a_file(tmp_path, files, capsys):
+    from breastcore.cli.main import main
+    (tmp_path / "file").write_text("")
+    assert main(["export", str(files["solve"]), "--out-dir", str(tmp_path / "file")]) == 2
+    line, = capsys.readouterr().err.strip().splitlines()
+    assert "--out-dir" in line and "a file, not a folder" in line, line
+
+
 @pytest.mark.parametrize("value", ["1.5", "-0.1"])
 def test_bad_identify_cost_rtol_is_one_line_naming_the_option(tmp_path, value, files):
     out = run("identify", "--measurements", files["measure"], "--cost-rtol", value,
