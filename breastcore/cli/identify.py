@@ -103,6 +103,12 @@ def run(args):
 
     base = parameters_from_args(args)
     initial = parse_initial(args.initial, base.identified())
+    given = {item.partition("=")[0].strip().replace("-", "_") for item in (args.initial or "").split(",")}
+    for name, value in zip(IDENTIFIED, initial):
+        if not value > 0:        # a modulus may be 0 in a solve, never where the fit takes its logarithm
+            option = "--initial" if name in given else "--" + name.replace("_", "-")
+            raise UsageError(f"{option}: the initial {name} = {value:g} {PARAMETER_INFO[name].units} must be > 0 "
+                             "to be identified (the fit works in ln Λ, where 0 is −∞)")
     try:
         base = base.with_identified(initial)
     except ValueError as err:

@@ -94,7 +94,8 @@ def identify(mm, target, initial, options=IdentificationOptions(), weights=None,
         Only if the forward solve fails at the initial guess.
     ValueError
         If fewer measurements carry weight than there are parameters (e.g. one posture's
-        five for six): Λ would not be determined and its intervals would be meaningless.
+        five for six): Λ would not be determined and its intervals would be meaningless;
+        or if an initial value is not > 0 (the fit works in ln Λ and logit(H/R)).
     """
     if getattr(mm, "warm_radius", options.warm_radius) != options.warm_radius:
         raise ValueError(f"the measurement model's warm_radius ({mm.warm_radius}) is not the options' "
@@ -110,6 +111,9 @@ def identify(mm, target, initial, options=IdentificationOptions(), weights=None,
     refusal = too_few_weighted(w, len(initial))
     if refusal:
         raise ValueError(refusal)
+    if not np.all(np.asarray(initial, float) > 0):
+        raise ValueError(f"initial guess {list(initial)}: every identified parameter must be > 0 (the fit works in "
+                         "ln Λ and logit(H/R))")
     sqrt_w = np.sqrt(w)
     run = IdentificationRun(mm, target, w)
     implicit = options.jacobian == "implicit"

@@ -3,8 +3,9 @@
 ``scipy.optimize.least_squares`` (``method="trf"``, exact subproblem) minimises the weighted
 relative residuals in ``d = (z − z₀)/r``, ``z`` the variables of
 :mod:`~breastcore.inverse.transforms` and ``r`` the first trust radius. A step whose forward
-solve fails returns :data:`FAILED_RESIDUAL`, so it is rejected and the trust region shrinks:
-a failed solve never ends the run.
+solve fails returns residuals larger than those of the current point (at least
+:data:`FAILED_RESIDUAL` each), so it is rejected and the trust region shrinks: a failed solve
+never ends the run, and is never accepted, however badly the current point fits.
 """
 
 from __future__ import annotations
@@ -17,7 +18,8 @@ from breastcore.inverse.history import log
 from breastcore.inverse.transforms import from_unconstrained, to_unconstrained, unconstrained_chain
 from breastcore.model.parameters import ParameterError
 
-#: Residual returned for a Λ whose forward solve fails: cost ≫ any real one.
+#: Least residual returned for a Λ whose forward solve fails (each entry; more where the current
+#: point's cost is higher, e.g. measurements entered in the wrong unit, ~1e6 relative residuals).
 FAILED_RESIDUAL = 1e3
 #: LM's cap on residual evaluations (trial points, accepted or not) per allowed iteration.
 MAX_EVALUATIONS_PER_ITERATION = 3
@@ -58,7 +60,8 @@ class _Residuals:
         except (SolveError, ParameterError) as err:
             self.run.failed_solves += 1
             log.info("identify: step rejected, forward solve failed (%s)", err)
-            return np.full(self.target.size, FAILED_RESIDUAL)
+            # above the current point's cost 0.5 Σ r² (scipy's), so that scipy rejects the step
+            return np.full(self.target.size, max(FAILED_RESIDUAL, 10.0 * np.sqrt(2.0 * self.last_cost)))
         self.evaluations.append((np.array(d, float), values, sols))
         return (self.sqrt_w * (self.mm.measure(sols) / self.target - 1.0)).ravel()
 
@@ -111,8 +114,8 @@ def levenberg_marquardt(mm, target, sqrt_w, initial, solutions, options, run, wa
     exact = stopped and run.cost[-1] <= EXACT_FIT
     plateau = stopped and problem.plateau
     converged_at_cap = stopped and not exact and not plateau and problem.converged
-    run.success = bool(out.status > 0 or exact or plateau or converged_at_cap) and \
-        np.all(np.abs(out.fun) < FAILED_RESIDUAL)
+    # out.x is a point whose solve succeeded: scipy accepts no failed one (problem.at found it)
+    run.success = bool(out.status > 0 or exact or plateau or converged_at_cap)
     if exact:
         run.message = f"exact fit: cost {run.cost[-1]:.2e} ≤ {EXACT_FIT:g}"
     elif plateau:

@@ -268,7 +268,8 @@ class MeasurementModel:
                 rhs.append(scale * problem.free(modulus_gradient(term, attribute, x)))
                 moved.append(np.zeros_like(x))
                 continue
-            h = min(rel_step * abs(values[j]), GEOMETRY_STEP_PER_SMOOTHING * params.smoothing)
+            h = min(rel_step * abs(values[j]), GEOMETRY_STEP_PER_SMOOTHING * params.smoothing,
+                    0.5 * (values[0] - values[1]))          # R − h and H + h keep 0 < H < R
             plus = self.model.problem(params.replace(**{name: values[j] + h}), posture)
             minus = self.model.problem(params.replace(**{name: values[j] - h}), posture)
             rhs.append((plus.gradient(z) - minus.gradient(z)) / (2 * h))
@@ -287,12 +288,20 @@ class MeasurementModel:
         return np.array([(plus[q] - minus[q]) / (2 * scale) for q in self.quantities])
 
     def fd_jacobian(self, values, solutions, rel_step=1e-3, central=False) -> np.ndarray:
-        """Forward (or central) differences of ``M`` in each ``Λ_j``, each solve warm-started from ``solutions``."""
+        """Forward (or central) differences of ``M`` in each ``Λ_j``, each solve warm-started from ``solutions``.
+
+        A step never leaves ``0 < H < R``: where ``H(1 + ε)`` would reach ``R`` the ``H`` column is a
+        backward difference, and a central step in R or H is at most half of ``R − H``.
+        """
         base = self.measure(solutions)
         warm = WarmStarts.at(self.warm_radius, solutions, values)
         out = np.zeros(base.shape + (len(IDENTIFIED),))
         for j in range(len(IDENTIFIED)):
             h = rel_step * values[j]
+            if j == 1 and values[1] + h >= values[0]:           # H + h would reach R: step backwards
+                h = -h
+            if central and j in (0, 1):                          # R − h and H + h within 0 < H < R
+                h = np.sign(h) * min(abs(h), 0.5 * (values[0] - values[1]))
             plus = np.array(values, float)
             plus[j] += h
             m_plus = self.measure(self.solve(plus, warm))

@@ -133,6 +133,40 @@ def test_failed_forward_solve_is_rejected_not_fatal(problem, monkeypatch):
     assert result.success and np.abs(result.estimate / TRUTH - 1).max() <= 1e-4
 
 
+class _FailsAwayFromTheStart(LinearModel):
+    """Every solve away from the start fails, as a forward solve does far outside the model's range."""
+
+    start = None
+
+    def solve(self, values, warm=None, jacobian=False):
+        self.start = np.array(values, float) if self.start is None else self.start
+        if not np.array_equal(values, self.start):
+            self.solves += 1
+            raise SolveError("injected", iterations=1, gradient_norm=1.0, tolerance=0.1, min_det_F=0.5,
+                             load_factor=1.0, smoothing=1e-6, posture="standing")
+        return super().solve(values, warm, jacobian)
+
+
+@pytest.mark.parametrize("scale", [1.0, 1e-6])
+def test_a_failed_solve_is_never_an_accepted_step_however_badly_the_start_fits(scale):
+    """Measurements entered a million times too small (a patient file in SI units read as ml and mm)
+    give relative residuals of 1e6: the fixed residual of a failed solve (1e3) was then lower, scipy
+    accepted the failed point, and asked for a Jacobian there (KeyError, no dataset)."""
+    mm = _FailsAwayFromTheStart()
+    target = LinearModel().measure(LinearModel().solve(TRUTH)) * scale
+    start = TRUTH * 1.2
+    result = identify(mm, target, start)
+    assert result.failed_solves >= 1 and np.array_equal(result.estimate, start)
+    assert all(np.array_equal(p, start) for p in result.parameters)
+
+
+def test_a_start_that_is_not_positive_is_refused_before_any_solve():
+    mm = LinearModel()
+    with pytest.raises(ValueError, match="must be > 0"):
+        identify(mm, mm.measure(mm.solve(TRUTH)), TRUTH * np.array([1, 1, 0, 1, 1, 1]))
+    assert mm.solves == 1
+
+
 def test_identify_command_writes_history_estimate_and_uncertainty(tmp_path):
     sol, meas, out = tmp_path / "s.nc", tmp_path / "m.nc", tmp_path / "id.nc"
     assert main(["solve", "--mesh", "coarse", "--out", str(sol)]) == 0
@@ -435,3 +469,23 @@ def test_lm_solves_the_start_once_and_takes_no_jacobian_twice_at_the_same_point(
     assert len(jacobians) == len({tuple(v) for v in jacobians}) >= 2
     fresh = jacobian(result.estimate, result.solutions) * result.estimate / target[..., None]
     np.testing.assert_array_equal(result.jacobian, fresh)
+
+
+def test_jacobian_steps_stay_inside_0_lt_H_lt_R(problem):
+    """A forward step H(1 + ε) ≥ R built an inadmissible cap (ParameterError, no dataset): with
+    ``--fd-step 0.2`` at the paper's H/R = 0.89, and in the implicit Jacobian's central R, H steps
+    once LM had driven H/R to 1 − 1e-8. The FD column is now the backward difference; the implicit
+    one's step is at most half of R − H."""
+    mm, solutions, _ = problem
+    step = 0.2
+    assert TRUTH[1] * (1 + step) >= TRUTH[0]
+    J = mm.fd_jacobian(TRUTH, solutions, rel_step=step)
+    below = TRUTH.copy()
+    below[1] *= 1 - step
+    backward = (mm.measure(solutions) - mm.measure(mm.solve(below, mm.warm_starts()))) / (step * TRUTH[1])
+    np.testing.assert_allclose(J[..., 1], backward, rtol=1e-6)
+    near = TRUTH.copy()
+    near[1] = near[0] * (1 - 1e-8)
+    flat = mm.solve(near)
+    rows = mm.implicit_jacobian(near, flat)
+    assert np.all(np.isfinite(rows)) and np.abs(rows[..., 0]).max() > 0
