@@ -58,3 +58,7 @@ def run(args):
     print(f"wrote {args.out}")
     if ds.attrs["regime_warning"]:
         print(f"breastcore solve: warning: {ds.attrs['regime_warning']}", file=sys.stderr)
+    if any(s.negative_eigenvalues > 0 for s in solutions):     # written, but not a shape to use as it is
+        print("breastcore solve: a posture ended on a saddle, not a stable equilibrium (dataset written)",
+              file=sys.stderr)
+        return 1

@@ -19,7 +19,7 @@ from breastcore.forward.records import PostureSolution, SolveError
 from breastcore.linalg.factorization import hessian_factor, hessian_inertia
 from breastcore.model.parameters import Parameters
 from breastcore.model.postures import Posture
-from breastcore.nonlinear.newton import newton
+from breastcore.nonlinear.newton import NewtonResult, newton
 from breastcore.nonlinear.saddle import escape_saddle
 
 
@@ -44,6 +44,20 @@ def _newton(model, problem, z, tolerance):
 
 
 def _minimise(model, problem, z, tolerance):
+    """One minimisation; a numerical breakdown on the way (an element so degenerate that its eigen-solve
+    fails, a non-finite Hessian) is a failed step, which continuation halves and, if it persists,
+    reports as a :class:`SolveError` with its diagnostics, never a bare ``LinAlgError``."""
+    try:
+        with np.errstate(divide="ignore", invalid="ignore", over="ignore"):    # non-finite values are tested
+            return _minimise_unguarded(model, problem, z, tolerance)
+    except (np.linalg.LinAlgError, FloatingPointError) as err:
+        with np.errstate(all="ignore"):
+            g_norm, energy = float(np.linalg.norm(problem.gradient(z))), float(problem.value(z))
+        log.info("numerical breakdown in a minimisation (%s)", err)
+        return NewtonResult(z, False, 0, g_norm, tolerance, energy, 0, (g_norm,), f"numerical breakdown: {err}")
+
+
+def _minimise_unguarded(model, problem, z, tolerance):
     if model.options.method == "cg":
         return _cg_minimiser(model)(problem, z, tolerance)
     result = _newton(model, problem, z, tolerance)

@@ -12,6 +12,7 @@ from breastcore.io.datasets import _var, mesh_coords, mesh_from_dataset, mesh_va
 from breastcore.model.parameters import Parameters
 from breastcore.model.postures import Posture
 from breastcore.model.sliding import REGIME_MARGIN, regime_warning, sliding_margin
+from breastcore.model.stability import saddle_warning, stretch_warning
 from breastcore.model.torso import penetration_warning
 from breastcore.problem import ProblemSpec
 
@@ -38,12 +39,16 @@ DIAGNOSTICS = {
 def shape_warning(params: Parameters, solutions) -> str:
     """The warnings of shapes outside the model's regime, joined by "; " (``""``: none).
 
-    The sliding margin of ``params`` (:func:`~breastcore.model.sliding.regime_warning`)
-    and the tissue behind the torso plane in each of ``solutions``
-    (:func:`~breastcore.model.torso.penetration_warning`).
+    The sliding margin of ``params`` (:func:`~breastcore.model.sliding.regime_warning`),
+    and in each of ``solutions`` the tissue behind the torso plane
+    (:func:`~breastcore.model.torso.penetration_warning`), a saddle
+    (:func:`~breastcore.model.stability.saddle_warning`) and a stretch beyond soft tissue
+    (:func:`~breastcore.model.stability.stretch_warning`).
     """
     depths = {s.posture.name: s.torso_penetration for s in solutions}
-    return "; ".join(w for w in (regime_warning(params), penetration_warning(depths)) if w)
+    saddles = saddle_warning({s.posture.name: s.negative_eigenvalues for s in solutions})
+    stretches = stretch_warning({s.posture.name: s.max_stretch for s in solutions})
+    return "; ".join(w for w in (regime_warning(params), penetration_warning(depths), saddles, stretches) if w)
 
 
 def solve_postures(model: ForwardModel, params: Parameters, postures, starts=None) -> list[PostureSolution]:

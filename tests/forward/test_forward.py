@@ -80,6 +80,36 @@ def test_failure_raises_typed_error_with_diagnostics(coarse):
     assert "min det F" in str(err)
 
 
+@pytest.mark.parametrize("breakdowns", [1, 10**6])
+def test_a_numerical_breakdown_is_a_failed_step_never_a_bare_linalg_error(coarse, monkeypatch, breakdowns):
+    """Very soft parameters degenerate an element until numpy's eigen-solve of its projected Hessian
+    fails (``LinAlgError: Eigenvalues did not converge``), which reached the user without diagnostics.
+    Now a breakdown is a failed continuation step: once, the step is halved and the solve converges;
+    always, the solve ends in a SolveError with its diagnostics."""
+    import breastcore.forward.continuation as continuation
+    real, calls = continuation.newton, {"n": 0}
+
+    def breaking(*args, **kwargs):
+        calls["n"] += 1
+        if calls["n"] <= breakdowns:
+            raise np.linalg.LinAlgError("Eigenvalues did not converge")
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(continuation, "newton", breaking)
+    model = ForwardModel(coarse, SolverOptions(min_step=1e-3))
+    posture = Posture("fours", 90.0)
+    if breakdowns == 1:
+        solution = model.solve(Parameters(), posture)
+        problem = model.problem(Parameters(), posture)
+        assert np.linalg.norm(problem.gradient(problem.free(solution.position))) <= solution.tolerance
+        return
+    with pytest.raises(SolveError) as info:
+        model.solve(Parameters(), posture)
+    err = info.value
+    assert "numerical breakdown: Eigenvalues did not converge" in str(err) and err.posture == "fours"
+    assert np.isfinite(err.gradient_norm) and np.isfinite(err.min_det_F) and err.tolerance > 0
+
+
 @pytest.mark.parametrize("attempts", [1, 3])
 def test_unreachable_tolerance_gives_up_after_max_final_attempts(coarse, attempts):
     # rtol 1e-20 is below the gradient's round-off floor: every final step stagnates,
