@@ -209,10 +209,12 @@ def compare_results(folder_a, folder_b, allow_unpaired=False) -> ComparisonResul
     """
     comparison = _Comparison((ResultsFolder(folder_a), ResultsFolder(folder_b)))
     comparison.pair_same_names("scenes/")
-    while comparison.to_compare:
+    while True:                 # a folder without scenes/ (a solve/ folder alone) pairs by path only
         while comparison.to_compare:
             comparison.compare_pair(*comparison.to_compare.popleft())
         comparison.pair_same_names()
+        if not comparison.to_compare:
+            break
     unpaired_a = tuple(sorted(comparison.folders[0].datasets - set(comparison.a_to_b)))
     unpaired_b = tuple(sorted(comparison.folders[1].datasets - set(comparison.b_to_a)))
     identical = not comparison.differences and (allow_unpaired or not (unpaired_a or unpaired_b))

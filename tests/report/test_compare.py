@@ -154,3 +154,23 @@ def test_exit_status_of_the_command_and_the_module(tmp_path, folder_a, capsys):
     assert cli_main(["compare", str(folder_a), str(same)]) == 0
     with pytest.raises(UsageError, match="not a folder holding .nc datasets"):
         parser.parse_args(["compare", str(folder_a), str(tmp_path / "nowhere")])
+
+
+def test_a_folder_without_scenes_pairs_by_path_and_equals_itself(tmp_path):
+    """Paths were paired only after a scene had been compared: a solve/ folder alone read
+    'DIFFERENT: 0 differences, 4 unpaired, 0 pairs compared' against itself."""
+    import shutil
+
+    def without_scenes(results):
+        shutil.rmtree(results / "scenes")
+        return results
+
+    folder = without_scenes(build_results(tmp_path / "a", NAMES_A))
+    result = compare_results(folder, folder)
+    assert result.identical and result.pairs == len(NAMES_A) - 1 and not result.unpaired_a, render(result)
+
+    def nudge(role, ds):
+        if role == "solve":
+            ds["position"].values[0, 0] += 1e-9          # one value, attributes kept
+    changed = without_scenes(build_results(tmp_path / "b", NAMES_A, edit=nudge))
+    assert not compare_results(folder, changed).identical
