@@ -53,6 +53,16 @@ def _bad(mutate):
     return str(info.value)
 
 
+@pytest.mark.parametrize("mutate, key", [
+    (lambda c: c.setdefault("solver", {}).update(rtol=5), "solver.rtol"),
+    (lambda c: c["scenes"]["example_patient"].setdefault("identification", {}).update(fd_step=1.0),
+     "scenes.example_patient.identification.fd_step")])
+def test_the_config_bounds_what_the_command_line_bounds(mutate, key):
+    """``rtol`` and ``fd_step`` are in (0, 1) on the command line; the config let 5 through."""
+    message = _bad(mutate)
+    assert key in message and "greater than or equal to the maximum of 1" in message, message
+
+
 def test_unknown_key():
     assert "colour" in _bad(lambda c: c.update(colour="red"))
     assert "scenes.example_patient" in _bad(lambda c: c["scenes"]["example_patient"].update(nme="x"))
