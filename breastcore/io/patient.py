@@ -252,11 +252,32 @@ def load_patient(path, measurement_set=None, allow_implausible=False) -> Patient
     return patient_from_dict(data, allow_implausible)
 
 
+#: Ranges (SI) outside which no adult breast measures, with a wide margin: 5 ml to 20 l, 1 cm² to
+#: 1 m², 5 mm to 1 m. A value outside is most likely in another unit (metres typed as mm).
+ANATOMICAL_RANGE = {"volume": (5e-6, 2e-2), "area": (1e-4, 1.0), "height": (5e-3, 1.0),
+                    "frontal_depth": (5e-3, 1.0), "back_depth": (5e-3, 1.0)}
+
+
+def _outside_anatomy(quantity, value) -> str:
+    """A message when ``value`` (SI) of ``quantity`` is outside :data:`ANATOMICAL_RANGE`, else ``""``."""
+    low, high = ANATOMICAL_RANGE[quantity]
+    if low <= value <= high:
+        return ""
+    unit = DEFAULT_UNITS[quantity]
+    factor = UNIT_FACTORS[KIND[quantity]][unit]
+    return (f"{quantity} {value / factor:.4g} {unit} is outside {low / factor:g} … {high / factor:g} {unit}, the "
+            "range of any adult breast (a value in another unit?)")
+
+
 def implausible(patient) -> list:
-    """Broken rules that every measured shape of the model obeys, one message per break.
+    """Broken rules that every measured shape of the model obeys, or values outside any breast, one
+    message per break.
 
     Notes
     -----
+    Every value must lie in :data:`ANATOMICAL_RANGE`: the rules below are invariant to scale, so
+    measurements all in a wrong unit would pass them.
+
     With ``MP`` the nipple projection (back_depth), ``Δf`` the frontal depth, ``A`` the
     area and ``V`` the volume of the ``paper15`` set (spec §4), every deformed cap has
 
@@ -281,6 +302,8 @@ def implausible(patient) -> list:
                                                    f"{2 * math.pi / 3 * mp**3 * 1e6:.4g} ml (every tape radius is "
                                                    "at least the nipple projection)")]
         out += [f"posture {name!r}: {message}" for bad, message in rules if bad]
+    for name, row in zip(patient.posture_names, patient.values):      # after the rules: they say more
+        out += [f"posture {name!r}: {m}" for m in (_outside_anatomy(q, x) for q, x in zip(QUANTITIES, row)) if m]
     return out
 
 

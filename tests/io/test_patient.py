@@ -310,3 +310,25 @@ def test_the_documented_yaml_example_is_a_patient_the_command_line_accepts(tmp_p
     assert main(["measure", "--patient", str(path), "--out", str(tmp_path / "m.nc")]) == 0
     stored = open_dataset(tmp_path / "m.nc")
     assert np.allclose(stored["measurement"].values, patient.values)
+
+
+@pytest.mark.parametrize("scale, first", [
+    ((1e-6, 1e-4, 1e-3, 1e-3, 1e-3), "volume 0.0006 ml is outside 5 … 20000 ml"),     # SI values under ml, cm², mm
+    ((1.0, 1.0, 1e-3, 1e-3, 1e-3), "height 0.15 mm is outside 5 … 1000 mm"),         # lengths in metres
+    ((1e3, 1.0, 1.0, 1.0, 1.0), "volume 6e+05 ml is outside 5 … 20000 ml"),           # litres typed as ml ×1000
+])
+def test_values_in_another_unit_are_refused_though_the_scale_free_rules_pass(scale, first):
+    """The rules of implausible() compare the values with one another; a file all in a wrong unit
+    passed them (a review's SI file ran 28 s and crashed). Values outside any breast are refused."""
+    from breastcore.io.patient import ANATOMICAL_RANGE, implausible
+    data = good()
+    for posture in data["postures"].values():
+        for quantity, factor in zip(QUANTITIES, scale):
+            posture[quantity] *= factor
+    with pytest.raises(ImplausibleMeasurements) as err:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", MeasurementWarning)
+            patient_from_dict(data)
+    assert "posture 'standing': " + first in str(err.value), str(err.value)
+    assert set(ANATOMICAL_RANGE) == set(QUANTITIES)
+    assert implausible(patient_from_dict(good())) == []
