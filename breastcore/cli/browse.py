@@ -107,8 +107,11 @@ def describe(ds, pictures=()) -> str:
                 "guess_outcome_counts", "scene", "source", "choice", "rule"):
         if key in a:
             lines.append(f"  {key}: {a[key]}")
-    lines.append(f"  provenance: breastcore {a.get('breastcore_version')} (source {a.get('source_hash')}), "
-                 f"config {a.get('config_hash')}, created {a.get('created')}")
+    if "breastcore_version" in a:
+        lines.append(f"  provenance: breastcore {a.get('breastcore_version')} (source {a.get('source_hash')}), "
+                     f"config {a.get('config_hash')}, created {a.get('created')}")
+    else:
+        lines.append("  provenance: none (not written by breastcore)")
     return "\n".join(lines)
 
 

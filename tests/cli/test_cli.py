@@ -493,3 +493,11 @@ def test_show_into_a_pipe_that_closes_early_prints_no_error(files):
     assert proc.stdout.readline()
     proc.stdout.close()
     assert proc.stderr.read() == "" and proc.wait() in (0, 141)
+
+
+def test_show_of_a_foreign_netcdf_file_says_it_has_no_provenance(files, capsys):
+    """It printed 'breastcore None (source None), config None' for a file no breastcore wrote."""
+    from breastcore.cli.main import main
+    assert main(["show", files["no-stage"]]) == 0
+    out = capsys.readouterr().out
+    assert "provenance: none (not written by breastcore)" in out and "None" not in out, out
