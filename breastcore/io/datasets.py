@@ -96,6 +96,17 @@ def _var(dims, data, units, long_name, **attrs):
     return xr.Variable(dims, data, {"units": units, "long_name": long_name, **attrs})
 
 
+def per_entry_units(units) -> str:
+    """The ``units`` attribute of a variable whose entries along one dimension differ in unit (the
+    six parameters, the five measurements): each entry's unit in order, comma-separated, ``m, m, Pa``.
+
+    Not a UDUNITS string, on purpose: a CF unit parser (cf-units, pint) refuses it, where the
+    space-separated form used before (``m m Pa Pa Pa Pa``) parsed silently as m²·Pa⁴. The
+    coordinate ``parameter_units`` or ``quantity_units`` holds the same units one per entry.
+    """
+    return ", ".join(units)
+
+
 def mesh_variables(mesh: CapMesh) -> dict:
     """The mesh part shared by the mesh and solution datasets."""
     chain_len = max(len(mesh.meridians[m]) for m in MERIDIANS)

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import xarray as xr
 
-from breastcore.inverse.measurements import QUANTITIES
+from breastcore.inverse.measurements import QUANTITIES, UNITS
 from breastcore.inverse.uncertainty import (
     DETERMINED_FACTOR,
     UNSEEN_SENSITIVITY,
@@ -18,12 +18,12 @@ from breastcore.inverse.uncertainty import (
     log_covariance,
 )
 from breastcore.inverse.verdict import fit_verdict
-from breastcore.io.datasets import _var, mesh_coords, mesh_variables, provenance
+from breastcore.io.datasets import _var, mesh_coords, mesh_variables, per_entry_units, provenance
 from breastcore.io.solution import DIAGNOSTICS, shape_warning
 from breastcore.model.parameters import IDENTIFIED, PARAMETER_INFO
 from breastcore.model.sliding import REGIME_MARGIN, sliding_margin
 
-_PARAM_UNITS = " ".join(PARAMETER_INFO[p].units for p in IDENTIFIED)
+_PARAM_UNITS = per_entry_units(PARAMETER_INFO[p].units for p in IDENTIFIED)
 
 
 def identification_dataset(result, mm, target, problem, *, initial, truth=None, mesh_level="custom",
@@ -63,7 +63,8 @@ def identification_dataset(result, mm, target, problem, *, initial, truth=None, 
         "standardised_residual": _var(("posture", "quantity"), np.asarray(result.measurement_error[-1]) / options.noise,
                                       "1", "(M(Λ̂)/M̄ − 1) / σ at the estimate, σ the noise model's relative 1σ"),
         "singular_values": _var(("singular",), singular, "1", "singular values of the weighted relative Jacobian"),
-        "target": _var(("posture", "quantity"), target.values, "m3 m2 m m m", "measured values M̄"),
+        "target": _var(("posture", "quantity"), target.values, per_entry_units(UNITS[q] for q in QUANTITIES),
+                       "measured values M̄"),
         "weight": _var(("posture", "quantity"), target.weights, "1", "weight w_i of the measurement in the cost"),
         "position": _var(("posture", "node", "xyz"),
                          np.stack([result.solutions[p].position for p in postures]), "m",

@@ -12,12 +12,12 @@ import numpy as np
 import xarray as xr
 
 from breastcore.inverse.measurements import LONG_NAMES, QUANTITIES, UNITS, landmark_positions, measure
-from breastcore.io.datasets import LANDMARKS, _var, mesh_from_dataset, provenance
+from breastcore.io.datasets import LANDMARKS, _var, mesh_from_dataset, per_entry_units, provenance
 from breastcore.io.patient import PatientMeasurements
 from breastcore.io.solution import postures_from_dataset
 from breastcore.problem import ProblemSpec
 
-_UNIT_LIST = " ".join(UNITS[q] for q in QUANTITIES)
+_UNIT_LIST = per_entry_units(UNITS[q] for q in QUANTITIES)
 
 
 def measurement_dataset(target: PatientMeasurements, source: str, *, landmarks=None, problem=None,

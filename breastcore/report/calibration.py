@@ -27,7 +27,7 @@ import numpy as np
 import pandas as pd
 import xarray as xr
 
-from breastcore.io.datasets import _var, open_dataset, provenance
+from breastcore.io.datasets import _var, open_dataset, per_entry_units, provenance
 from breastcore.model.parameters import IDENTIFIED, PARAMETER_INFO, ParameterError, Parameters
 from breastcore.model.sliding import slip_threshold
 from breastcore.pipeline.calibration_plan import SHORT
@@ -149,7 +149,7 @@ def _solve_variables(s, spec):
 
 def _study_variables(s, spec):
     """The per-point, per-level and per-c results of the study, and the rule's verdict per c."""
-    parameter_units = " ".join(PARAMETER_INFO[p].units for p in IDENTIFIED)
+    parameter_units = per_entry_units(PARAMETER_INFO[p].units for p in IDENTIFIED)
     return {
         "point_parameters": _var(("point", "parameter"), s.first["point_parameters"].values, parameter_units,
                                  "Λ of the point; units per parameter in parameter_units"),

@@ -27,8 +27,12 @@ through xarray, atomically (temporary name, then rename). Every variable carries
 CF-style `units` and `long_name`; indices are 0-based; coordinates are in the torso
 frame (x lateral, y anterior, z superior; the torso plane is y = 0). Where one
 variable mixes quantities along a dimension (the six parameters, the five
-measurements) its `units` attribute lists the unit of each entry in order, and a
-coordinate (`parameter_units`, `quantity_units`) holds them too.
+measurements) its `units` attribute lists the unit of each entry in order,
+comma-separated (`m, m, Pa, Pa, Pa, Pa`), and a coordinate (`parameter_units`,
+`quantity_units`) holds them one per entry. Such a list is not a UDUNITS string, on
+purpose: a CF unit library (cf-units, pint-xarray) refuses it rather than read a
+product (a space-separated `m m Pa Pa Pa Pa` would parse as m²·Pa⁴); take each
+entry's unit from the coordinate.
 
 Global attributes of every dataset: `stage`, `title`, `breastcore_version`,
 `source_hash` (of the package code), `config_hash` (hash of the job's spec),

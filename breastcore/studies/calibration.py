@@ -28,7 +28,7 @@ from breastcore.forward.model import ForwardModel
 from breastcore.forward.records import SolveError
 from breastcore.inverse.measurements import QUANTITIES, UNITS, measure
 from breastcore.inverse.operator import MeasurementModel
-from breastcore.io.datasets import _var, provenance
+from breastcore.io.datasets import _var, per_entry_units, provenance
 from breastcore.model.parameters import IDENTIFIED, PARAMETER_INFO, ParameterError, Parameters
 from breastcore.problem import ProblemSpec
 
@@ -53,8 +53,8 @@ RECORDS = {
     "smoothing_reached": ("m", "Chassaignac smoothing δ reached by the continuation"),
     "wall_time": ("s", "wall time of the cold solve"),
 }
-_PARAM_UNITS = " ".join(PARAMETER_INFO[p].units for p in IDENTIFIED)
-_QUANTITY_UNITS = " ".join(UNITS[q] for q in QUANTITIES)
+_PARAM_UNITS = per_entry_units(PARAMETER_INFO[p].units for p in IDENTIFIED)
+_QUANTITY_UNITS = per_entry_units(UNITS[q] for q in QUANTITIES)
 
 
 def cold_solve(model: ForwardModel, params, posture, measurement_set="paper15"):

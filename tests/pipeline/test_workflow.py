@@ -321,6 +321,12 @@ def test_every_dataset_follows_the_documented_schema(workdir):
             for name, var in ds.variables.items():
                 assert name in documented, (path, name)
                 assert documented[name] == (var.dims, var.attrs["units"]), (path, name)
+                # a unit per entry is comma-separated: 'm m Pa ...' would parse in UDUNITS as a product
+                lists = [[str(u) for u in ds[e].values] for e in ("parameter_units", "quantity_units")
+                         if e in ds and ds[e].dims[0] in var.dims]
+                several = len(var.attrs["units"].replace(",", " ").split()) > 1      # not one unit for all
+                if lists and several and not var.attrs["units"].startswith("products of"):
+                    assert var.attrs["units"].split(", ") in lists, (path, name, var.attrs["units"])
 
 
 def test_results_page_is_generated_from_scene_summaries(workdir):
