@@ -17,6 +17,7 @@ import numpy as np
 import yaml
 
 from breastcore.inverse.measurements import QUANTITIES, UNITS, MeasurementError, check_measurement_set
+from breastcore.io.yaml_keys import repeated_key
 from breastcore.model.postures import PAPER_POSTURES, Posture, PostureError
 
 KIND = _frozen({q: q if q in ("volume", "area") else "length" for q in QUANTITIES})  #: physical kind
@@ -236,7 +237,12 @@ def load_patient(path, measurement_set=None, allow_implausible=False) -> Patient
     try:
         if path.suffix.lower() == ".csv":
             return _build(*_read_csv(path, measurement_set or "paper15"), allow_implausible)
-        data = yaml.safe_load(path.read_text(encoding="utf-8"))
+        text = path.read_text(encoding="utf-8")
+        repeated = repeated_key(yaml.compose(text, Loader=yaml.SafeLoader))
+        if repeated:
+            raise MeasurementError(f"{path}: {repeated[0]} given twice, at lines {repeated[1]} and {repeated[2]}; "
+                                   "YAML would silently keep the last")
+        data = yaml.safe_load(text)
     except UnicodeDecodeError as err:
         raise MeasurementError(f"{path}: not UTF-8 text (byte {err.start})") from None
     except OSError as err:

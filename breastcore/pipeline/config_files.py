@@ -8,40 +8,14 @@ from pathlib import Path
 
 import yaml
 
+from breastcore.io.yaml_keys import repeated_key
+
 #: A number in exponent form, which YAML 1.1 reads as text unless written like 1.0e+3.
 _EXPONENT = re.compile(r"[-+]?(\d+\.?\d*|\.\d+)[eE][-+]?\d+")
 
 
 class ConfigError(ValueError):
     """An invalid configuration; the message names the key and the problem."""
-
-
-def _repeated_key(node, where="", seen=None):
-    """Raise ConfigError at the first scalar key given twice in one mapping of a YAML node tree.
-
-    Merge keys (``<<``) are left to YAML, which applies them all; an alias met again is
-    not walked twice.
-    """
-    seen = set() if seen is None else seen
-    if id(node) in seen:
-        return
-    seen.add(id(node))
-    if isinstance(node, yaml.MappingNode):
-        lines = {}
-        for key_node, value_node in node.value:
-            if not isinstance(key_node, yaml.ScalarNode) or key_node.tag == "tag:yaml.org,2002:merge":
-                continue
-            key = (key_node.tag, key_node.value)
-            path = f"{where}.{key_node.value}" if where else str(key_node.value)
-            line = key_node.start_mark.line + 1
-            if key in lines:
-                raise ConfigError(f"config key {path}: given twice, at lines {lines[key]} and {line} "
-                                  f"of {key_node.start_mark.name}; YAML would silently keep the last")
-            lines[key] = line
-            _repeated_key(value_node, path, seen)
-    elif isinstance(node, yaml.SequenceNode):
-        for i, item in enumerate(node.value):
-            _repeated_key(item, f"{where}[{i}]", seen)
 
 
 def _syntax_error(path, err: yaml.YAMLError) -> ConfigError:
@@ -87,7 +61,11 @@ def check_config_files(paths) -> None:
                 except ValueError:
                     raise _syntax_error(path, err) from None
                 continue
-        _repeated_key(tree)
+        found = repeated_key(tree)
+        if found:
+            path_, first, second, name = found
+            raise ConfigError(f"config key {path_}: given twice, at lines {first} and {second} of {name}; YAML "
+                              "would silently keep the last")
 
 
 def _load_config_file(path) -> dict:

@@ -332,3 +332,16 @@ def test_values_in_another_unit_are_refused_though_the_scale_free_rules_pass(sca
     assert "posture 'standing': " + first in str(err.value), str(err.value)
     assert set(ANATOMICAL_RANGE) == set(QUANTITIES)
     assert implausible(patient_from_dict(good())) == []
+
+
+def test_a_posture_or_quantity_given_twice_in_yaml_is_refused_naming_both_lines(tmp_path):
+    """YAML keeps the last of two equal keys: a second 'standing' line silently replaced the first."""
+    path = tmp_path / "p.yaml"
+    rows = "".join(f"  {p}: {{{', '.join(f'{q}: {v}' for q, v in zip(QUANTITIES, vals))}}}\n" for p, vals in ROWS.items())
+    path.write_text("postures:\n" + rows + "  standing: {volume: 700, area: 310, height: 150, frontal_depth: 62, "
+                    "back_depth: 55}\n")
+    with pytest.raises(MeasurementError, match=r"postures\.standing given twice, at lines 2 and 5"):
+        load_patient(path)
+    path.write_text("postures:\n" + rows.replace("volume: 600,", "volume: 600, volume: 650,"))
+    with pytest.raises(MeasurementError, match=r"postures\.standing\.volume given twice, at lines 2 and 2"):
+        load_patient(path)
