@@ -108,7 +108,8 @@ def run(args):
         if not value > 0:        # a modulus may be 0 in a solve, never where the fit takes its logarithm
             option = "--initial" if name in given else "--" + name.replace("_", "-")
             raise UsageError(f"{option}: the initial {name} = {value:g} {PARAMETER_INFO[name].units} must be > 0 "
-                             "to be identified (the fit works in ln Λ, where 0 is −∞)")
+                             "to be identified (both methods scale each parameter by itself: LM works in ln Λ, Gauss–Newton "
+                             "in ΔΛ/Λ)")
     try:
         base = base.with_identified(initial)
     except ValueError as err:
@@ -136,7 +137,7 @@ def run(args):
                                                        ds["interval_high"].values, ds["determined"].values,
                                                        ds["interval_decades"].values, ds["limit"].values):
         unit = PARAMETER_INFO[name].units
-        interval = (f"not determined: {limit_note(int(limit), value, unit)}" if limit != SEEN else
+        interval = (limit_note(int(limit), value, unit) if limit != SEEN else
                     f"95 %: {lo:.4g} … {hi:.4g}" if ok else
                     f"not determined by these measurements: its 95 % interval spans {decades:.3g} decades")
         print(f"{name:>14s} = {value:.6g} {unit}  ({interval})")

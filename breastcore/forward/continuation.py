@@ -50,7 +50,7 @@ def _minimise(model, problem, z, tolerance):
     try:
         with np.errstate(divide="ignore", invalid="ignore", over="ignore"):    # non-finite values are tested
             return _minimise_unguarded(model, problem, z, tolerance)
-    except (np.linalg.LinAlgError, FloatingPointError) as err:
+    except np.linalg.LinAlgError as err:
         with np.errstate(all="ignore"):
             g_norm, energy = float(np.linalg.norm(problem.gradient(z))), float(problem.value(z))
         log.info("numerical breakdown in a minimisation (%s)", err)

@@ -229,7 +229,8 @@ class MeasurementModel:
         (:func:`~breastcore.fem.terms.modulus_gradient`; no new problem is built), and a
         central difference of the free-dof gradient at fixed free dofs for R and H,
         which move the reference nodes and the fold through the smooth map (second
-        order), with step ``h = min(rel_step·|p|, GEOMETRY_STEP_PER_SMOOTHING·δ)``:
+        order), with step ``h = min(rel_step·|p|, GEOMETRY_STEP_PER_SMOOTHING·δ, (R − H)/2)``
+        (the last keeps both sides inside ``0 < H < R``):
         the smoothed Chassaignac gradient ``c u/√(|u|² + δ²)`` of a back node that
         sticks (``|u| ≲ δ``) bends on the length δ, so the difference's truncation
         error is ``O((h/δ)²)`` there (docs/identification.md). ``∂M/∂x·dx/dp`` is a

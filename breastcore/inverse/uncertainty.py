@@ -40,9 +40,11 @@ UNDETERMINED = f"not determined by these measurements (95 % interval wider than 
 #: A parameter whose weighted relative-Jacobian column is shorter than this (2-norm) is unseen.
 UNSEEN_SENSITIVITY = 1e-6
 #: What unseen parameters are called in logs and ``show``, before their names and limits.
-UNSEEN = (f"unseen by these measurements (a factor e moves them by less than {UNSEEN_SENSITIVITY:g}): "
-          "estimates that are limits, not values")
-#: The codes of :func:`limits`: a value (seen), a limit towards 0 or ∞, unseen where it started.
+_THRESHOLD = f"{UNSEEN_SENSITIVITY:.0e}".replace("e-0", "e-")                       # 1e-6, not 1e-06
+UNSEEN = f"unseen by the measurements (a factor e in it moves them by less than {_THRESHOLD} relative), so not a value"
+#: How far (a factor) an unseen estimate must lie from its start for :func:`limits` to give it a direction.
+LIMIT_FACTOR = 10.0
+#: The codes of :func:`limits`: a value (seen), a limit towards 0 or ∞, unseen without a clear direction.
 SEEN, TOWARDS_ZERO, TOWARDS_INFINITY, UNSEEN_UNMOVED = 0, -1, 1, 2
 
 
@@ -67,24 +69,27 @@ def limits(J, estimate, initial, weights=None):
     Notes
     -----
     Unseen: :math:`\|\sqrt{W} J_{:,j}\|_2 <` :data:`UNSEEN_SENSITIVITY`. Its direction is the sign
-    of :math:`\ln(\hat\Lambda_j / \Lambda^0_j)`.
+    of :math:`\ln(\hat\Lambda_j / \Lambda^0_j)` where the estimate lies more than :data:`LIMIT_FACTOR`
+    from its start; nearer (a start already unseen, a drift at round-off) it has none
+    (:data:`UNSEEN_UNMOVED`): the optimiser did not go anywhere.
     """
     J = np.asarray(J, float)
     w = np.ones(J.shape[0]) if weights is None else np.asarray(weights, float).ravel()
     unseen = np.linalg.norm(np.sqrt(w)[:, None] * J, axis=0) < UNSEEN_SENSITIVITY
-    moved = np.sign(np.log(np.asarray(estimate, float) / np.asarray(initial, float)))
+    log_move = np.log(np.asarray(estimate, float) / np.asarray(initial, float))
+    moved = np.where(np.abs(log_move) > np.log(LIMIT_FACTOR), np.sign(log_move), 0.0)
     direction = np.where(moved < 0, TOWARDS_ZERO, np.where(moved > 0, TOWARDS_INFINITY, UNSEEN_UNMOVED))
     return np.where(unseen, direction, SEEN).astype(np.int8)
 
 
 def limit_note(limit, estimate, unit) -> str:
     """Why an unseen parameter (:func:`limits` code ``limit``, not :data:`SEEN`) has no value: one phrase."""
-    unseen = f"unseen by these measurements (a factor e moves them by less than {UNSEEN_SENSITIVITY:g})"
+    where = f"{estimate:.3g} {unit} is where the optimiser stopped"
+    unseen = f"a factor e in it moves the measurements by less than {_THRESHOLD} relative"
     if limit == UNSEEN_UNMOVED:
-        return f"{unseen}; it stayed at its start, {estimate:.3g} {unit}"
-    side, end = ("below", "0") if limit == TOWARDS_ZERO else ("above", "∞")
-    return (f"→ {end}: {unseen}; every value {side} {estimate:.3g} {unit}, where the optimiser stopped, "
-            "fits as well: a limit, not a value")
+        return f"unseen, not a value ({where}, near its start; {unseen})"
+    end = "0" if limit == TOWARDS_ZERO else "∞"
+    return f"→ {end}, a limit, not a value ({where}; {unseen})"
 
 
 def at_limit(parameters, limit_codes) -> list:

@@ -8,6 +8,7 @@ import xarray as xr
 from breastcore.inverse.measurements import QUANTITIES, UNITS
 from breastcore.inverse.uncertainty import (
     DETERMINED_FACTOR,
+    LIMIT_FACTOR,
     UNSEEN_SENSITIVITY,
     Z95,
     conditioning,
@@ -54,9 +55,9 @@ def identification_dataset(result, mm, target, problem, *, initial, truth=None, 
                          "relative Jacobian ∂ln M/∂ln Λ at the estimate"),
         **_uncertainty_variables(estimate, cov_log, low, high, options.noise),
         "limit": _var(("parameter",), limits(J, estimate, initial, weights), "1",
-                      "0: the measurements see the parameter; unseen by them (its relative-Jacobian column shorter "
-                      f"than {UNSEEN_SENSITIVITY:g}), the estimate is a limit: -1 towards 0, 1 towards infinity from the initial guess, "
-                      "2 unmoved"),
+                      "0: the measurements see the parameter; unseen by them (its relative-Jacobian column "
+                      f"shorter than {UNSEEN_SENSITIVITY:g}), the estimate is a limit: -1 towards 0, 1 towards "
+                      f"infinity (more than a factor {LIMIT_FACTOR:g} from the initial guess), 2 no clear direction"),
         "sliding_margin": _var((), sliding_margin(params), "1",
                                f"c / (ρ g V/|Γ_B|) at the estimate; below {REGIME_MARGIN:g} the standing breast "
                                "slides (outside the mesh-converged regime)"),

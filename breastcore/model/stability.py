@@ -25,15 +25,21 @@ def saddle_warning(negative_eigenvalues) -> str:
     if not saddles:
         return ""
     listed = ", ".join(f"{name} ({n} negative eigenvalue{'s' if n > 1 else ''})" for name, n in saddles.items())
-    return (f"unstable equilibrium, a saddle of the energy, in {listed}: the escape did not leave it, and no "
-            "breast holds such a shape")
+    return (f"unstable equilibrium, a saddle of the energy, in {listed}: the solver's saddle escape could not "
+            "leave it, and no breast holds such a shape")
+
+
+def postures_over(values, limit, shown) -> str:
+    """``"standing 318, bent45 nan"``: each posture whose value is not ``<= limit`` (NaN included),
+    its value formatted by ``shown``; ``""`` if none."""
+    return ", ".join(f"{name} {shown(v) if v == v else 'not finite'}" for name, v in values.items()
+                     if not v <= limit)
 
 
 def stretch_warning(max_stretch) -> str:
     """One line naming the postures whose largest stretch exceeds :data:`MAX_PLAUSIBLE_STRETCH`, else ``""``."""
-    over = {name: s for name, s in max_stretch.items() if not s <= MAX_PLAUSIBLE_STRETCH}
-    if not over:
+    listed = postures_over(max_stretch, MAX_PLAUSIBLE_STRETCH, lambda s: f"{s:.3g}")
+    if not listed:
         return ""
-    listed = ", ".join(f"{name} {s:.3g}" for name, s in over.items())
     return (f"largest principal stretch above {MAX_PLAUSIBLE_STRETCH:g} ({listed}): beyond any soft tissue, "
             "the parameters are outside the model's physical range")

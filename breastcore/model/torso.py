@@ -12,6 +12,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from breastcore.model.stability import postures_over
+
 #: Depth behind the torso plane above which a shape is flagged, m. One millimetre: the
 #: resolution at which the tape and ruler measurements are read.
 PENETRATION_LIMIT = 1e-3
@@ -48,9 +50,8 @@ def penetration_warning(depths) -> str:
         Posture name to :func:`torso_penetration` of its shape, m. A NaN depth (a
         non-finite shape, which no converged solve returns) is warned too.
     """
-    over = {name: d for name, d in depths.items() if not d <= PENETRATION_LIMIT}
-    if not over:
+    listed = postures_over(depths, PENETRATION_LIMIT, lambda d: f"{d * 1e3:.3g} mm")
+    if not listed:
         return ""
-    listed = ", ".join(f"{name} {d * 1e3:.3g} mm" for name, d in over.items())
     return (f"tissue behind the torso plane y = 0 by more than {PENETRATION_LIMIT * 1e3:g} mm ({listed}): "
             "the shape crosses the chest wall, whose contact the model leaves out")

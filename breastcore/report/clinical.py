@@ -46,7 +46,7 @@ def estimate_rows(ds) -> list:
         value = float(ds["estimate"].values[i]) * factor
         limit = int(ds["limit"].values[i]) if "limit" in ds else SEEN        # datasets before the flag: none
         if limit != SEEN:
-            interval = "not determined: " + limit_note(limit, value, unit)
+            interval = limit_note(limit, value, unit)
         elif int(ds["determined"].values[i]):
             interval = tuple(float(ds[k].values[i]) * factor for k in ("interval_low", "interval_high"))
         else:

@@ -165,7 +165,8 @@ def solution_summary(path, name, kind, config_hash=None) -> xr.Dataset:
     if kind == "patient":
         for key in ("estimate", "interval_low", "interval_high", "interval_decades", "determined", "limit", "cost",
                     "standardised_residual"):
-            data[key] = ds[key].variable
+            if key in ds:                    # an identification from before the limit flag has none
+                data[key] = ds[key].variable
         units = ds["target"].attrs["units"]
         data["measured"] = _var(("posture", "quantity"), ds["target"].values, units,
                                 "measured values M̄ (units per quantity, in the order of quantity)")
@@ -212,13 +213,20 @@ def parameter_table(identification: xr.Dataset) -> pd.DataFrame:
         "ci95_high": identification["interval_high"].values,
         "interval_decades": identification["interval_decades"].values,
         "determined": np.where(determined, "yes", "no: not determined by these measurements"),
-        "limit": [limit_note(code, value, PARAMETER_INFO[p].units) if code != SEEN else "none (a value)"
-                  for p, code, value in zip(IDENTIFIED, identification["limit"].values.astype(int),
-                                            identification["estimate"].values)],
+        "limit": _limit_column(identification),
         "fit_verdict": identification.attrs["verdict"],
         "regime_warning": identification.attrs.get("regime_warning") or "none",
         "input_notes": notes,
     })
+
+
+def _limit_column(identification) -> list:
+    """Per parameter: "none (a value)", why it is a limit, or "not recorded" (a dataset from before the flag)."""
+    if "limit" not in identification:
+        return ["not recorded"] * len(IDENTIFIED)
+    return [limit_note(code, value, PARAMETER_INFO[p].units) if code != SEEN else "none (a value)"
+            for p, code, value in zip(IDENTIFIED, identification["limit"].values.astype(int),
+                                      identification["estimate"].values)]
 
 
 def diagnostics_table(ds: xr.Dataset) -> pd.DataFrame:

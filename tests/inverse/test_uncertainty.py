@@ -116,10 +116,13 @@ def test_limits_flag_only_columns_the_weighted_measurements_do_not_see(linear_mo
     J[:, 4] *= 2.0 * UNSEEN_SENSITIVITY / np.linalg.norm(J[:, 4])      # twice it: seen, however weakly
     J[:, 5] *= 0.5 * UNSEEN_SENSITIVITY / np.linalg.norm(J[:, 5])
     initial = TRUTH.copy()
-    estimate = TRUTH * np.array([1.0, 1e-20, 3.0, 0.5, 1e-9, 1e9])
+    estimate = TRUTH * np.array([1.0, 1e-20, 30.0, 0.5, 1e-9, 1e9])
     codes = limits(J, estimate, initial)
     assert codes.tolist() == [SEEN, TOWARDS_ZERO, SEEN, SEEN, SEEN, TOWARDS_INFINITY]
     assert limits(J, initial, initial)[[1, 5]].tolist() == [UNSEEN_UNMOVED, UNSEEN_UNMOVED]
+    # a start already unseen that drifts at round-off, or by less than LIMIT_FACTOR, has no direction
+    drift = TRUTH * np.array([1.0, 1 + 1e-13, 1.0, 1.0, 1.0, 1 / 9.0])
+    assert limits(J, drift, initial)[[1, 5]].tolist() == [UNSEEN_UNMOVED, UNSEEN_UNMOVED]
     # what a measurement weighs decides what it shows: a column seen only by unweighted rows is unseen
     weights = np.ones(N_MEAS)
     weights[:7] = 0.0

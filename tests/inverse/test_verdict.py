@@ -269,6 +269,17 @@ def test_an_undetermined_parameter_is_marked_in_show_and_the_parameters_csv(tmp_
     assert table.loc[undetermined, ["ci95_low", "ci95_high"]].isna().all().all()   # no bounds, not huge ones
     assert table.loc[~undetermined, ["ci95_low", "ci95_high"]].notna().all().all()
     assert (table.loc[undetermined, "interval_decades"] > 1).all()
+    assert set(table["limit"]) == {"none (a value)"}
+
+
+def test_an_identification_from_before_the_limit_flag_still_shows_and_tabulates(tmp_path):
+    """Read with --rerun-triggers mtime, or by the report on an old file: no KeyError, and no claim."""
+    from breastcore.cli.browse import describe
+    from breastcore.io.datasets import open_dataset
+    from breastcore.report.summaries import parameter_table
+    ds = open_dataset(_identification(tmp_path / "id.nc", "consistent", True)).drop_vars("limit")
+    assert set(parameter_table(ds)["limit"]) == {"not recorded"}
+    assert "unseen" not in describe(ds) and "95 %:" in describe(ds)
 
 
 def test_a_modulus_sent_to_zero_is_shown_as_a_limit_not_a_value(tmp_path):
@@ -289,11 +300,11 @@ def test_a_modulus_sent_to_zero_is_shown_as_a_limit_not_a_value(tmp_path):
     limit = dict(zip(ds["parameter"].values, ds["limit"].values.tolist()))
     assert limit["mu_skin"] == TOWARDS_ZERO and ds["estimate"].values[5] < 1e-6, ds["estimate"].values
     assert all(limit[p] == SEEN for p in ("R", "H", "lambda_breast", "mu_breast", "lambda_skin")), limit
-    assert "mu_skin = " in out.stdout and "→ 0: unseen by these measurements" in out.stdout, out.stdout
+    assert "mu_skin = " in out.stdout and "(→ 0, a limit, not a value (" in out.stdout, out.stdout
     shown = describe(ds)
     assert "mu_skin → 0" in shown and "a limit, not a value" in shown
     table = parameter_table(ds)
-    assert table["limit"][4] == "none (a value)" and table["limit"][5].startswith("→ 0: unseen")
+    assert table["limit"][4] == "none (a value)" and table["limit"][5].startswith("→ 0, a limit, not a value")
     _, mm, _, estimate = problem_from_identification(ds)
     with mm:
         def relative_change(index, factor):

@@ -19,6 +19,20 @@ def test_shape_picture_marks_the_lowest_fold_point_and_gravity(tmp_path):
         levels = [line.get_ydata()[0] for line in ax.get_lines() if line.get_linestyle() == "--"]
         assert levels == [fold_low], levels
     assert [t.get_text() for t in side.texts] == ["fold", "g"]
+    # an identification has no gravity variable: the arrow comes from posture_angle, the same direction
+    arrow = side.texts[1]
+    angled = ds.drop_vars("gravity").assign(posture_angle=("posture", [0.0]))
+    side_of_angle = shape_figure(angled, "standing", tmp_path / "a.png").axes[0]
+    assert [t.get_text() for t in side_of_angle.texts] == ["fold", "g"]
+    assert side_of_angle.texts[1].xy == arrow.xy
+
+
+def test_diagnostics_table_headings_carry_their_units(tmp_path):
+    from breastcore.report.summaries import diagnostics_table
+    assert main(["solve", "--mesh", "coarse", "--posture", "fours", "--out", str(tmp_path / "s.nc")]) == 0
+    columns = list(diagnostics_table(open_dataset(tmp_path / "s.nc")).columns)
+    assert {"gradient_norm (N)", "tolerance (N)", "energy (J)", "torso_penetration (m)", "wall_time (s)",
+            "newton_iterations", "min_det_F"} <= set(columns), columns
 
 
 def test_convergence_figure_leaves_out_an_estimate_that_is_a_limit(tmp_path):
