@@ -104,6 +104,8 @@ def front_page(scenes) -> str:
     by kind in :data:`KIND_ORDER`, each kind in the order given."""
     body = [f"<style>{REPORT_LAYOUT_CSS}{TABLE_CSS}</style>",
             "<p>Each scene of this run, with what it found first; the categories on the left hold every "
-            "figure and table, and the datasets are in the results folder (<code>breastcore show</code>).</p>"]
+            # not <code>: the report's prose style prints backticks around it
+            "figure and table, and the datasets are in the results folder (read them with "
+            '<span style="font-family:monospace">breastcore show</span>).</p>']
     body += [scene_section(name, ds, pictures) for name, ds, pictures in sorted(scenes, key=_kind_rank)]
     return "\n".join(body) + "\n"

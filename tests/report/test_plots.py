@@ -45,3 +45,17 @@ def test_convergence_figure_leaves_out_an_estimate_that_is_a_limit(tmp_path):
     assert [line.get_label() for line in left.get_lines()] == ["R", "H", "λ", "μ", "λ_s"]
     assert max(np.abs(line.get_ydata()).max() for line in left.get_lines()) < 2e4       # λ_s: 8000 → 41.7
     assert [t.get_text() for t in left.texts] == ["not shown, limits: μ_s → 0"]
+
+
+def test_sensitivity_heatmap_keeps_small_columns_visible_beside_a_loose_modulus(tmp_path):
+    """A loose λ_s (±350 % per %) made every other column white on a linear colour scale."""
+    from matplotlib.colors import SymLogNorm
+
+    from breastcore.report.plots import sensitivity_figure
+    S = np.full((6, 4), 0.5)
+    S[4] = [350.0, -300.0, 10.0, -2.0]
+    ds = xr.Dataset({"linearised": (("parameter", "measurement"), S)},
+                    coords={"parameter": list(IDENTIFIED), "measurement": ["a", "b", "c", "d"]})
+    image = sensitivity_figure(ds, tmp_path / "s.png").axes[0].images[0]
+    assert isinstance(image.norm, SymLogNorm) and image.norm.vmax == 350.0
+    assert abs(image.norm(0.5) - 0.5) > 0.05                    # 0.5 % per % is not drawn as white
