@@ -11,6 +11,7 @@ from __future__ import annotations
 import argparse
 import math
 import os
+import re
 from pathlib import Path
 
 from breastcore.model.parameters import (
@@ -281,8 +282,10 @@ def dataset_file(*stages, check=None):
             if check is not None:
                 try:
                     check(ds)
-                except KeyError as err:
-                    raise argparse.ArgumentTypeError(f"{text!r}: stage {stage!r} dataset without {err}") from None
+                except KeyError as err:         # xarray's message is a sentence listing the variables
+                    named = re.search(r"named '([^']+)'", str(err))
+                    missing = f"the variable {named.group(1)!r}" if named else str(err)
+                    raise argparse.ArgumentTypeError(f"{text!r}: stage {stage!r} dataset without {missing}") from None
                 except ValueError as err:
                     raise argparse.ArgumentTypeError(f"{text!r}: {err}") from None
         return path

@@ -501,3 +501,14 @@ def test_show_of_a_foreign_netcdf_file_says_it_has_no_provenance(files, capsys):
     assert main(["show", files["no-stage"]]) == 0
     out = capsys.readouterr().out
     assert "provenance: none (not written by breastcore)" in out and "None" not in out, out
+
+
+def test_a_measurement_dataset_without_its_variable_is_named_plainly(tmp_path, files, capsys):
+    """It read "stage 'measure' dataset without "No variable named 'measurement'. Variables on ..."."""
+    from breastcore.cli.main import main
+    from breastcore.io.datasets import open_dataset
+    broken = open_dataset(files["measure"]).drop_vars("measurement")
+    broken.to_netcdf(tmp_path / "m.nc")
+    assert main(["identify", "--measurements", str(tmp_path / "m.nc"), "--out", str(tmp_path / "id.nc")]) == 2
+    line, = capsys.readouterr().err.strip().splitlines()
+    assert line.endswith("stage 'measure' dataset without the variable 'measurement'"), line
