@@ -28,8 +28,9 @@ OPTIONS, SOLVER = IdentificationOptions(), SolverOptions()
 
 
 def parse_initial(text, defaults):
-    """``R=0.05,H=0.04,mu_breast=120`` → the six values (others from ``defaults``)."""
-    values = dict(zip(IDENTIFIED, defaults))
+    """``R=0.05,H=0.04,mu_breast=120`` → the six values (others from ``defaults``), each > 0: a modulus
+    may be 0 in a solve, never as a start of the identification, which scales each parameter by itself."""
+    values, given = dict(zip(IDENTIFIED, defaults)), set()
     for item in filter(None, (t.strip() for t in (text or "").split(","))):
         key, _, value = item.partition("=")
         key = key.strip().replace("-", "_")
@@ -39,6 +40,13 @@ def parse_initial(text, defaults):
             values[key] = float(value)
         except ValueError:
             raise UsageError(f"--initial: {key}={value!r} is not a number") from None
+        given.add(key)
+    for name, value in values.items():
+        if not value > 0:
+            option = "--initial" if name in given else "--" + name.replace("_", "-")
+            raise UsageError(f"{option}: the initial {name} = {value:g} {PARAMETER_INFO[name].units} must be > 0 "
+                             "to be identified (both methods scale each parameter by itself: LM works in ln Λ, "
+                             "Gauss–Newton in ΔΛ/Λ)")
     return [values[k] for k in IDENTIFIED]
 
 
@@ -103,13 +111,6 @@ def run(args):
 
     base = parameters_from_args(args)
     initial = parse_initial(args.initial, base.identified())
-    given = {item.partition("=")[0].strip().replace("-", "_") for item in (args.initial or "").split(",")}
-    for name, value in zip(IDENTIFIED, initial):
-        if not value > 0:        # a modulus may be 0 in a solve, never where the fit takes its logarithm
-            option = "--initial" if name in given else "--" + name.replace("_", "-")
-            raise UsageError(f"{option}: the initial {name} = {value:g} {PARAMETER_INFO[name].units} must be > 0 "
-                             "to be identified (both methods scale each parameter by itself: LM works in ln Λ, Gauss–Newton "
-                             "in ΔΛ/Λ)")
     try:
         base = base.with_identified(initial)
     except ValueError as err:

@@ -176,10 +176,7 @@ def writable_path():
         if path.exists() and not path.is_file():
             kind = "a folder" if path.is_dir() else "not a regular file (a device or a pipe)"
             raise argparse.ArgumentTypeError(f"cannot write {text!r}: it is {kind}")
-        probe = path.parent
-        while not probe.exists():
-            probe = probe.parent
-        if not probe.is_dir() or (path.exists() and not os.access(path, os.W_OK)) or not _can_create_in(probe):
+        if (path.exists() and not os.access(path, os.W_OK)) or not _can_create_in(path.parent):
             raise argparse.ArgumentTypeError(f"cannot write {text!r}")
         return path
     return convert
@@ -190,19 +187,22 @@ def writable_folder(text) -> Path:
     path = Path(text)
     if path.exists() and not path.is_dir():
         raise argparse.ArgumentTypeError(f"cannot write into {text!r}: it is a file, not a folder")
-    probe = path
-    while not probe.exists():
-        probe = probe.parent
-    if not probe.is_dir() or not _can_create_in(probe):
+    if not _can_create_in(path):
         raise argparse.ArgumentTypeError(f"cannot write into {text!r}")
     return path
 
 
 def _can_create_in(folder) -> bool:
-    """Whether a new file can be created (and removed) in the existing ``folder``."""
+    """Whether a new file can be created (and removed) in ``folder``, or, where it does not exist yet,
+    in its nearest existing ancestor (which must be a folder)."""
     import tempfile
+    probe = Path(folder)
+    while not probe.exists():
+        probe = probe.parent
+    if not probe.is_dir():
+        return False
     try:
-        with tempfile.TemporaryFile(dir=folder):
+        with tempfile.TemporaryFile(dir=probe):
             return True
     except OSError:
         return False

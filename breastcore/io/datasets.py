@@ -17,8 +17,9 @@ import numpy as np
 import xarray as xr
 
 from breastcore import __version__, source_hash
+from breastcore.inverse.measurements import QUANTITIES, UNITS
 from breastcore.model.mesh import CapMesh
-from breastcore.model.parameters import PARAMETER_INFO, Parameters
+from breastcore.model.parameters import IDENTIFIED, PARAMETER_INFO, Parameters
 
 LANDMARKS = ("nipple", "S", "I", "M", "L")
 MERIDIANS = ("S", "I", "M", "L")
@@ -105,6 +106,11 @@ def per_entry_units(units) -> str:
     coordinate ``parameter_units`` or ``quantity_units`` holds the same units one per entry.
     """
     return ", ".join(units)
+
+
+#: The ``units`` attribute of a variable along ``parameter`` (Λ) or ``quantity`` (M), per entry.
+PARAMETER_UNIT_LIST = per_entry_units(PARAMETER_INFO[p].units for p in IDENTIFIED)
+QUANTITY_UNIT_LIST = per_entry_units(UNITS[q] for q in QUANTITIES)
 
 
 def mesh_variables(mesh: CapMesh) -> dict:

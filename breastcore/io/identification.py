@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import xarray as xr
 
-from breastcore.inverse.measurements import QUANTITIES, UNITS
+from breastcore.inverse.measurements import QUANTITIES
 from breastcore.inverse.uncertainty import (
     DETERMINED_FACTOR,
     LIMIT_FACTOR,
@@ -19,12 +19,18 @@ from breastcore.inverse.uncertainty import (
     log_covariance,
 )
 from breastcore.inverse.verdict import fit_verdict
-from breastcore.io.datasets import _var, mesh_coords, mesh_variables, per_entry_units, provenance
+from breastcore.io.datasets import (
+    PARAMETER_UNIT_LIST,
+    QUANTITY_UNIT_LIST,
+    _var,
+    mesh_coords,
+    mesh_variables,
+    provenance,
+)
 from breastcore.io.solution import DIAGNOSTICS, shape_warning
 from breastcore.model.parameters import IDENTIFIED, PARAMETER_INFO
 from breastcore.model.sliding import REGIME_MARGIN, sliding_margin
 
-_PARAM_UNITS = per_entry_units(PARAMETER_INFO[p].units for p in IDENTIFIED)
 
 
 def identification_dataset(result, mm, target, problem, *, initial, truth=None, mesh_level="custom",
@@ -49,8 +55,8 @@ def identification_dataset(result, mm, target, problem, *, initial, truth=None, 
     verdict = verdict_of(result, target, options.noise)
     data = {
         **_history_variables(result),
-        "initial": _var(("parameter",), np.asarray(initial, float), _PARAM_UNITS, "initial guess"),
-        "estimate": _var(("parameter",), estimate, _PARAM_UNITS, "identified parameters"),
+        "initial": _var(("parameter",), np.asarray(initial, float), PARAMETER_UNIT_LIST, "initial guess"),
+        "estimate": _var(("parameter",), estimate, PARAMETER_UNIT_LIST, "identified parameters"),
         "jacobian": _var(("posture", "quantity", "parameter"), result.jacobian, "1",
                          "relative Jacobian ∂ln M/∂ln Λ at the estimate"),
         **_uncertainty_variables(estimate, cov_log, low, high, options.noise),
@@ -64,8 +70,7 @@ def identification_dataset(result, mm, target, problem, *, initial, truth=None, 
         "standardised_residual": _var(("posture", "quantity"), np.asarray(result.measurement_error[-1]) / options.noise,
                                       "1", "(M(Λ̂)/M̄ − 1) / σ at the estimate, σ the noise model's relative 1σ"),
         "singular_values": _var(("singular",), singular, "1", "singular values of the weighted relative Jacobian"),
-        "target": _var(("posture", "quantity"), target.values, per_entry_units(UNITS[q] for q in QUANTITIES),
-                       "measured values M̄"),
+        "target": _var(("posture", "quantity"), target.values, QUANTITY_UNIT_LIST, "measured values M̄"),
         "weight": _var(("posture", "quantity"), target.weights, "1", "weight w_i of the measurement in the cost"),
         "position": _var(("posture", "node", "xyz"),
                          np.stack([result.solutions[p].position for p in postures]), "m",
@@ -78,7 +83,7 @@ def identification_dataset(result, mm, target, problem, *, initial, truth=None, 
         data["solve_" + name] = _var(("posture",), np.array([getattr(result.solutions[p], attr) for p in postures]),
                                      units, long_name + " (solve of the final shapes)")
     if truth is not None:
-        data["truth"] = _var(("parameter",), np.asarray(truth, float), _PARAM_UNITS, "generating parameters")
+        data["truth"] = _var(("parameter",), np.asarray(truth, float), PARAMETER_UNIT_LIST, "generating parameters")
         data["relative_error"] = _var(("parameter",), estimate / np.asarray(truth, float) - 1.0, "1",
                                       "estimate / truth − 1")
     shown = mm.model.mesh_at(params)
@@ -105,7 +110,7 @@ def identification_dataset(result, mm, target, problem, *, initial, truth=None, 
 def _history_variables(result):
     """Per accepted iteration: parameters, cost, measurement errors, wall time."""
     return {
-        "parameters": _var(("iteration", "parameter"), np.array(result.parameters), _PARAM_UNITS,
+        "parameters": _var(("iteration", "parameter"), np.array(result.parameters), PARAMETER_UNIT_LIST,
                            "parameter values per accepted iteration; units per parameter in parameter_units"),
         "cost": _var(("iteration",), np.array(result.cost), "1", "cost E = Σ w (M/M̄ − 1)²"),
         "measurement_error": _var(("iteration", "posture", "quantity"), np.array(result.measurement_error), "1",
@@ -121,9 +126,11 @@ def _uncertainty_variables(estimate, cov_log, low, high, noise):
                                f"covariance of ln Λ under {noise:.0%} relative 1σ measurement noise"),
         "covariance": _var(("parameter", "parameter_"), cov_log * np.outer(estimate, estimate),
                            "products of parameter_units", "covariance of Λ (linearised)"),
-        "interval_low": _var(("parameter",), low, _PARAM_UNITS, f"lower bound of the {Z95:.2f}σ (95 %) interval "
+        "interval_low": _var(("parameter",), low, PARAMETER_UNIT_LIST,
+                             f"lower bound of the {Z95:.2f}σ (95 %) interval "
                              "(NaN where the parameter is not determined)"),
-        "interval_high": _var(("parameter",), high, _PARAM_UNITS, f"upper bound of the {Z95:.2f}σ (95 %) interval "
+        "interval_high": _var(("parameter",), high, PARAMETER_UNIT_LIST,
+                              f"upper bound of the {Z95:.2f}σ (95 %) interval "
                               "(NaN where the parameter is not determined)"),
         "interval_decades": _var(("parameter",), interval_decades(cov_log), "1",
                                  "width of the 95 % interval, log10(high / low)"),

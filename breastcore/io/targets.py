@@ -12,13 +12,10 @@ import numpy as np
 import xarray as xr
 
 from breastcore.inverse.measurements import LONG_NAMES, QUANTITIES, UNITS, landmark_positions, measure
-from breastcore.io.datasets import LANDMARKS, _var, mesh_from_dataset, per_entry_units, provenance
+from breastcore.io.datasets import LANDMARKS, QUANTITY_UNIT_LIST, _var, mesh_from_dataset, provenance
 from breastcore.io.patient import PatientMeasurements
 from breastcore.io.solution import postures_from_dataset
 from breastcore.problem import ProblemSpec
-
-_UNIT_LIST = per_entry_units(UNITS[q] for q in QUANTITIES)
-
 
 def measurement_dataset(target: PatientMeasurements, source: str, *, landmarks=None, problem=None,
                         config_hash=None) -> xr.Dataset:
@@ -40,7 +37,7 @@ def measurement_dataset(target: PatientMeasurements, source: str, *, landmarks=N
         raise ValueError("the problem spec's measurement set and postures must be those of the measurements")
     truth = None if problem is None else problem.parameters
     data = {
-        "measurement": _var(("posture", "quantity"), target.values, _UNIT_LIST,
+        "measurement": _var(("posture", "quantity"), target.values, QUANTITY_UNIT_LIST,
                             "measured value; units per quantity in quantity_units"),
         "weight": _var(("posture", "quantity"), target.weights, "1", "weight w_i of the measurement in the cost"),
         "posture_angle": _var(("posture",), np.array([p.angle for p in target.postures]), "degree",

@@ -27,8 +27,8 @@ import numpy as np
 import pandas as pd
 import xarray as xr
 
-from breastcore.io.datasets import _var, open_dataset, per_entry_units, provenance
-from breastcore.model.parameters import IDENTIFIED, PARAMETER_INFO, ParameterError, Parameters
+from breastcore.io.datasets import PARAMETER_UNIT_LIST, _var, open_dataset, provenance
+from breastcore.model.parameters import IDENTIFIED, ParameterError, Parameters
 from breastcore.model.sliding import slip_threshold
 from breastcore.pipeline.calibration_plan import SHORT
 from breastcore.report import paper_values as paper
@@ -149,9 +149,8 @@ def _solve_variables(s, spec):
 
 def _study_variables(s, spec):
     """The per-point, per-level and per-c results of the study, and the rule's verdict per c."""
-    parameter_units = per_entry_units(PARAMETER_INFO[p].units for p in IDENTIFIED)
     return {
-        "point_parameters": _var(("point", "parameter"), s.first["point_parameters"].values, parameter_units,
+        "point_parameters": _var(("point", "parameter"), s.first["point_parameters"].values, PARAMETER_UNIT_LIST,
                                  "Λ of the point; units per parameter in parameter_units"),
         "admissible": _var(("point",), s.admissible.astype(np.int8), "1",
                            "1 where the point is a cap (0 < H < R); 0: left out, not solved"),

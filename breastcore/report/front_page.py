@@ -87,7 +87,8 @@ def scene_section(name, ds, pictures=()) -> str:
     if kind == "patient":
         parts += _patient(ds, [p for p in pictures if Path(p).stem.startswith("shape_")])
     elif kind == "synthetic":
-        parts += ["<h3>Mean absolute parameter error over the runs</h3>", table_html(error_table_with_units(ds), index=True)]
+        parts += ["<h3>Mean absolute parameter error over the runs</h3>",
+                  table_html(error_table_with_units(ds), index=True)]
         parts += _pictures("Convergence", [p for p in pictures if Path(p).stem == "convergence"], "60%")
     else:
         parts += _pictures("Figures", pictures, "32%" if kind == "forward" else "60%")

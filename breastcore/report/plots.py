@@ -7,6 +7,7 @@ from matplotlib.colors import SymLogNorm
 from matplotlib.figure import Figure
 from matplotlib.ticker import FuncFormatter, MaxNLocator
 
+from breastcore.inverse.uncertainty import at_limit
 from breastcore.model.parameters import IDENTIFIED
 
 _LABELS = {"R": "R", "H": "H", "lambda_breast": "λ", "mu_breast": "μ", "lambda_skin": "λ_s", "mu_skin": "μ_s"}
@@ -81,7 +82,7 @@ def convergence_figure(identifications, path, labels=None):
         style = {"linestyle": styles[k % len(styles)], "marker": markers[k % len(markers)], "markersize": 3}
         for j, name in enumerate(IDENTIFIED):
             if limit[j]:
-                hidden.add(f"{_LABELS[name]} {({-1: '→ 0', 1: '→ ∞'}).get(int(limit[j]), 'unseen')}")
+                hidden.update(at_limit([_LABELS[name]], [limit[j]]))
                 continue
             axes[0].plot(ds["iteration"], rel[:, j] * 100, color=f"C{j}", alpha=0.7,
                          label=_LABELS[name] if k == 0 else None, **style)

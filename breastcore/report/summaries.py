@@ -145,8 +145,8 @@ def error_table_with_units(summary: xr.Dataset) -> pd.DataFrame:
     table = error_table(summary)
     table["residual"] = (table["residual"] * 100).round(5)
     names = {p: f"{p} |error| (%)" for p in IDENTIFIED}
-    names.update({"mean": "mean |error| over the parameters (%)", "residual": "RMS measurement residual (%)", "time_s": "wall time (s)",
-                  "iterations": "iterations (mean count)"})
+    names.update({"mean": "mean |error| over the parameters (%)", "residual": "RMS measurement residual (%)",
+                  "time_s": "wall time (s)", "iterations": "iterations (mean count)"})
     names.update({v: f"{v} (runs)" for v in VERDICTS})
     return table.rename(columns=names).rename_axis(index={"offset": "initial offset (fraction)"})
 

@@ -28,7 +28,7 @@ from breastcore.forward.model import ForwardModel
 from breastcore.forward.records import SolveError
 from breastcore.inverse.measurements import QUANTITIES, UNITS, measure
 from breastcore.inverse.operator import MeasurementModel
-from breastcore.io.datasets import _var, per_entry_units, provenance
+from breastcore.io.datasets import PARAMETER_UNIT_LIST, QUANTITY_UNIT_LIST, _var, provenance
 from breastcore.model.parameters import IDENTIFIED, PARAMETER_INFO, ParameterError, Parameters
 from breastcore.problem import ProblemSpec
 
@@ -53,8 +53,6 @@ RECORDS = {
     "smoothing_reached": ("m", "Chassaignac smoothing δ reached by the continuation"),
     "wall_time": ("s", "wall time of the cold solve"),
 }
-_PARAM_UNITS = per_entry_units(PARAMETER_INFO[p].units for p in IDENTIFIED)
-_QUANTITY_UNITS = per_entry_units(UNITS[q] for q in QUANTITIES)
 
 
 def cold_solve(model: ForwardModel, params, posture, measurement_set="paper15"):
@@ -252,8 +250,8 @@ def level_points_dataset(model, level, labels, points, constants, postures, meas
             log.warning("relative Jacobian at %s failed: %s: %s", labels[0], type(err).__name__, err)
     data = {
         "point_parameters": _var(("point", "parameter"), np.array([[p[k] for k in IDENTIFIED] for p in points], float),
-                                 _PARAM_UNITS, "Λ of the point; units per parameter in parameter_units"),
-        "measurement": _var(("point", "posture", "quantity"), solved["measurement"], _QUANTITY_UNITS,
+                                 PARAMETER_UNIT_LIST, "Λ of the point; units per parameter in parameter_units"),
+        "measurement": _var(("point", "posture", "quantity"), solved["measurement"], QUANTITY_UNIT_LIST,
                             "the point's measurements from the cold solve (NaN unless converged); units per "
                             "quantity in quantity_units"),
         **_record_variables(solved, ("point", "posture"), "solve of the point"),
@@ -359,9 +357,9 @@ def uniqueness_dataset(model, level, truth, constants, postures, measurement_set
         return array[0], array[1:].reshape((p, 2) + array.shape[1:])
 
     base_value, shifted_value = split(solved["measurement"])
-    data = {"measurement_base": _var(("posture", "quantity"), base_value, _QUANTITY_UNITS,
+    data = {"measurement_base": _var(("posture", "quantity"), base_value, QUANTITY_UNIT_LIST,
                                      "measurements at Λ̄ (cold; NaN unless converged); units in quantity_units"),
-            "measurement_shifted": _var(("parameter", "side", "posture", "quantity"), shifted_value, _QUANTITY_UNITS,
+            "measurement_shifted": _var(("parameter", "side", "posture", "quantity"), shifted_value, QUANTITY_UNIT_LIST,
                                         "measurements at Λ̄ (1 ± ε e_j) (cold; NaN unless converged); units in "
                                         "quantity_units")}
     names = ("outcome", "message", *RECORDS)

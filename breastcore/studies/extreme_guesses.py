@@ -21,8 +21,8 @@ from breastcore.forward.records import SolveError
 from breastcore.inverse.identify import identify
 from breastcore.inverse.operator import MeasurementModel
 from breastcore.inverse.options import IdentificationOptions
-from breastcore.io.datasets import _var, per_entry_units, provenance
-from breastcore.model.parameters import IDENTIFIED, PARAMETER_INFO, Parameters
+from breastcore.io.datasets import PARAMETER_UNIT_LIST, _var, provenance
+from breastcore.model.parameters import IDENTIFIED, Parameters
 from breastcore.model.postures import paper_postures
 from breastcore.problem import ProblemSpec
 
@@ -76,7 +76,7 @@ def extreme_guess_dataset(labels, starts, outcomes, records, messages, level, pr
              "max_error": ("1", "largest |estimate / truth − 1| over the six parameters"),
              "wall_time": ("s", "wall time of the identification")}
     data = {"guess_label": _var(("guess",), np.array(labels), "1", "which moduli were scaled, and by what"),
-            "guess": _var(("guess", "parameter"), np.array(starts), per_entry_units(PARAMETER_INFO[p].units for p in IDENTIFIED), "initial guess"),
+            "guess": _var(("guess", "parameter"), np.array(starts), PARAMETER_UNIT_LIST, "initial guess"),
             "guess_outcome": _var(("guess",), np.array(outcomes), "1", f"one of {', '.join(OUTCOMES)}"),
             "guess_message": _var(("guess",), np.array(messages), "1", "stopping message or failure diagnostics")}
     for name, (u, long_name) in units.items():

@@ -337,7 +337,8 @@ def test_values_in_another_unit_are_refused_though_the_scale_free_rules_pass(sca
 def test_a_posture_or_quantity_given_twice_in_yaml_is_refused_naming_both_lines(tmp_path):
     """YAML keeps the last of two equal keys: a second 'standing' line silently replaced the first."""
     path = tmp_path / "p.yaml"
-    rows = "".join(f"  {p}: {{{', '.join(f'{q}: {v}' for q, v in zip(QUANTITIES, vals))}}}\n" for p, vals in ROWS.items())
+    rows = "".join(f"  {p}: {{{', '.join(f'{q}: {v}' for q, v in zip(QUANTITIES, vals))}}}\n"
+                   for p, vals in ROWS.items())
     path.write_text("postures:\n" + rows + "  standing: {volume: 700, area: 310, height: 150, frontal_depth: 62, "
                     "back_depth: 55}\n")
     with pytest.raises(MeasurementError, match=r"postures\.standing given twice, at lines 2 and 5"):
